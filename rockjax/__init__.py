@@ -1,0 +1,48 @@
+"""rockjax: differentiable rocking of URM parapets and facades (DEM and Housner), on JAX.
+
+Conventions: SI units, radians, float64. ``theta > 0`` when the block rotates about its +x
+bottom corner; a positive ground acceleration drives ``theta`` negative; a facade
+(``mode="one_sided"``) rotates only to ``theta >= 0``, its return walls at its -x face.
+"""
+
+import os
+import re
+
+# XLA:CPU compiles a while loop into a single kernel (no per-iteration dispatch) only when the
+# loop touches fewer bytes than `xla_cpu_small_while_loop_byte_threshold`. Our time-stepping
+# loops are a few hundred bytes per step but run tens of thousands of steps; above the default
+# threshold each step pays ~1 us of kernel dispatch, below it ~60 ns (docs/benchmarks.md).
+# XLA reads XLA_FLAGS when its CPU backend starts, so this takes effect only if no JAX
+# computation ran before `import rockjax`. Set ROCKJAX_NO_XLA_TUNING=1 to leave XLA_FLAGS alone.
+_THRESHOLD = "xla_cpu_small_while_loop_byte_threshold=1000000"
+if os.environ.get("ROCKJAX_NO_XLA_TUNING", "0") != "1":
+    _flags = os.environ.get("XLA_FLAGS", "")
+    if "xla_cpu_small_while_loop_byte_threshold" not in _flags:
+        if "--xla_backend_extra_options=" in _flags:
+            _flags = re.sub(r"--xla_backend_extra_options=(\S*)", rf"--xla_backend_extra_options=\1,{_THRESHOLD}", _flags)
+        else:
+            _flags = f"{_flags} --xla_backend_extra_options={_THRESHOLD}".strip()
+        os.environ["XLA_FLAGS"] = _flags
+
+import jax  # noqa: E402
+
+# The other import side effect: rocking impacts and penalty contacts need float64 (contact
+# penetrations are ~1e-6 of the block size and energies are compared to 1e-6 relative).
+jax.config.update("jax_enable_x64", True)
+
+from . import relations as relations  # noqa: E402
+from .block import Block as Block  # noqa: E402
+from .dem import simulate_dem as simulate_dem  # noqa: E402
+from .dem import stable_dt as stable_dt  # noqa: E402
+from .housner import simulate_housner as simulate_housner  # noqa: E402
+from .motion import GroundMotion as GroundMotion  # noqa: E402
+from .relations import beta_dejong as beta_dejong  # noqa: E402
+from .relations import beta_hcrit as beta_hcrit  # noqa: E402
+from .relations import beta_isr as beta_isr  # noqa: E402
+from .relations import e_housner as e_housner  # noqa: E402
+from .relations import e_isr as e_isr  # noqa: E402
+from .relations import omega_crit as omega_crit  # noqa: E402
+from .relations import omega_hcrit as omega_hcrit  # noqa: E402
+from .response import Response as Response  # noqa: E402
+
+__version__ = "0.1.0"

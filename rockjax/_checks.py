@@ -1,0 +1,38 @@
+"""Boundary checks on concrete inputs: clear ValueErrors that name the value, its unit and the fix.
+
+Traced values (inside jit/vmap/grad) cannot be checked here; those are checked in-graph with
+``equinox.error_if`` by the simulators.
+"""
+
+import numpy as np
+
+
+def concrete(x):
+    """Return ``x`` as a NumPy array if it is concrete, or None if it is a tracer."""
+    try:
+        return np.asarray(x, dtype=float)
+    except Exception:  # a jax Tracer raises a TracerArrayConversionError subclass here
+        return None
+
+
+def check_positive(name: str, value, unit: str, hint: str = "") -> None:
+    v = concrete(value)
+    if v is None:
+        return
+    if not np.all(np.isfinite(v)) or not np.all(v > 0):
+        fix = f" {hint}" if hint else ""
+        raise ValueError(f"{name} must be a positive finite number in {unit}; got {name}={value}.{fix}")
+
+
+def check_nonnegative(name: str, value, unit: str, hint: str = "") -> None:
+    v = concrete(value)
+    if v is None:
+        return
+    if not np.all(np.isfinite(v)) or not np.all(v >= 0):
+        fix = f" {hint}" if hint else ""
+        raise ValueError(f"{name} must be finite and >= 0 in {unit}; got {name}={value}.{fix}")
+
+
+def check_choice(name: str, value, choices) -> None:
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {sorted(choices)}; got {name}={value!r}.")

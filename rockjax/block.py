@@ -1,0 +1,91 @@
+"""The rigid block: geometry, material, and derived rocking quantities."""
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from ._checks import check_positive, concrete
+from ._types import ScalarLike
+from .constants import G
+
+
+class Block(eqx.Module):
+    """A rectangular rigid block (a parapet or a facade panel), in SI units.
+
+    Sign convention (used throughout rockjax): x is horizontal, in the rocking plane, y is up.
+    ``theta > 0`` when the block rotates about its +x bottom corner (the top moves toward +x).
+    A positive ground acceleration (base accelerating toward +x) drives ``theta`` negative.
+    A facade (``mode="one_sided"``) may rotate only to ``theta >= 0``; its return walls stand
+    at its -x face.
+
+    Fields may be Python floats or JAX arrays, so a ``Block`` can be vmapped or differentiated.
+
+    Args:
+        b: Full thickness in the rocking direction [m].
+        h: Full height [m].
+        length: Out-of-plane length [m] (does not change rocking, only mass and stiffness).
+        rho: Density [kg/m^3].
+        E: Young's modulus [Pa], used for the joint stiffness ``j_kn = E/h``.
+        nu: Poisson ratio [-], used for ``j_ks = j_kn / (2 (1 + nu))``.
+    """
+
+    b: ScalarLike
+    h: ScalarLike
+    length: ScalarLike = 1.0
+    rho: ScalarLike = 1800.0
+    E: ScalarLike = 1.8e9
+    nu: ScalarLike = 0.25
+
+    def __check_init__(self):
+        check_positive("b", self.b, "m", "Give the full wall thickness, e.g. b=0.25.")
+        check_positive("h", self.h, "m", "Give the full wall height, e.g. h=3.0.")
+        check_positive("length", self.length, "m", "Use the out-of-plane length, e.g. 1.0.")
+        check_positive("rho", self.rho, "kg/m^3", "Masonry is about 1800-2400 kg/m^3.")
+        check_positive("E", self.E, "Pa", "Give E in pascals, e.g. 1.8e9 for 1800 MPa.")
+        nu = concrete(self.nu)
+        if nu is not None and not (jnp.all(jnp.isfinite(nu)) and jnp.all((nu > -1) & (nu < 0.5))):
+            raise ValueError(f"nu (Poisson ratio, dimensionless) must lie in (-1, 0.5); got nu={self.nu}.")
+
+    @property
+    def m(self):
+        """Mass [kg]."""
+        return self.rho * self.b * self.h * self.length
+
+    @property
+    def m_per_length(self):
+        """Mass per unit out-of-plane length [kg/m] (the ``m`` of DeJong's omega_crit)."""
+        return self.rho * self.b * self.h
+
+    @property
+    def R(self):
+        """Half-diagonal, centroid to a corner [m]."""
+        return 0.5 * jnp.hypot(self.b, self.h)
+
+    @property
+    def eta(self):
+        """Slenderness angle ``atan(b/h)`` [rad] (the paper's eta; Housner's alpha)."""
+        return jnp.arctan2(self.b, self.h)
+
+    @property
+    def p(self):
+        """Housner frequency parameter ``sqrt(3 g / (4 R))`` [rad/s]."""
+        return jnp.sqrt(3.0 * G / (4.0 * self.R))
+
+    @property
+    def I_c(self):
+        """Moment of inertia about the centroid, in the rocking plane [kg m^2]."""
+        return self.m * (self.b**2 + self.h**2) / 12.0
+
+    @property
+    def I_O(self):
+        """Moment of inertia about a bottom corner, ``4/3 m R^2`` [kg m^2]."""
+        return 4.0 / 3.0 * self.m * self.R**2
+
+    @property
+    def j_kn(self):
+        """Joint normal stiffness per unit area ``E/h`` [Pa/m]."""
+        return self.E / self.h
+
+    @property
+    def j_ks(self):
+        """Joint shear stiffness per unit area ``j_kn / (2 (1 + nu))`` [Pa/m]."""
+        return self.j_kn / (2.0 * (1.0 + self.nu))
