@@ -1,0 +1,38 @@
+"""Shared reference cases for the tests."""
+
+import numpy as np
+from scipy.integrate import quad
+
+import rockjax as rj
+
+PARAPET = dict(b=0.25, h=3.0)  # the paper's 3.00 x 0.250 m geometry
+SQUAT = dict(b=0.2, h=1.5)
+
+
+def housner_time_to_impact(p, eta, theta0):
+    """Time [s] for the nonlinear Housner EOM to fall from rest at theta0 > 0 to theta = 0.
+
+    Energy conservation gives theta_dot^2 = 2 p^2 (cos(eta - theta0) - cos(eta - theta)); the
+    substitution theta = theta0 (1 - u^2) removes the endpoint singularity for quad.
+    """
+
+    def integrand(u):
+        th = theta0 * (1.0 - u * u)
+        rate2 = 2.0 * p**2 * (np.cos(eta - theta0) - np.cos(eta - th))
+        return 2.0 * theta0 * u / np.sqrt(rate2) if u > 0 else 2.0 * np.sqrt(theta0) / (
+            np.sqrt(2.0 * p**2 * np.sin(eta - theta0))
+        )
+
+    return quad(integrand, 0.0, 1.0, epsabs=1e-13, epsrel=1e-13, limit=200)[0]
+
+
+def first_downcrossing(t, theta):
+    """Linear-interpolated time of the first sign change of theta [s]."""
+    t = np.asarray(t)
+    th = np.asarray(theta)
+    i = int(np.flatnonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0])
+    return t[i] + (t[i + 1] - t[i]) * th[i] / (th[i] - th[i + 1])
+
+
+def block(**kw):
+    return rj.Block(**{**PARAPET, **kw})
