@@ -119,9 +119,11 @@ def test_one_sided_rebounds_off_the_wall():
     penetration = wall - x_top_back.min()
     # it reaches the wall, and the wall spring (k = j_kn h/2 ~ 1e9 N/m) stops it within 0.2 mm
     assert 0.0 < penetration < WALL_PENETRATION, penetration
-    # after the wall impact (t ~ 1 s) the facade rebounds outward, to a large fraction of theta0
-    after = np.asarray(r.t) > 1.1
-    assert th[after].max() > 0.3 * float(blk.eta), th[after].max()
+    # after the base-and-wall impact (t ~ 0.42 s) the facade rebounds outward, losing energy:
+    # one-sided impacts are lossy (|e_1SR| = 0.48 for this block, Eq. 5), so the rebound is
+    # well below theta0 = 0.5 eta but far above the gap (gap/h = 0.01 eta)
+    after = np.asarray(r.t) > 0.45
+    assert 0.05 < th[after].max() / float(blk.eta) < 0.5, th[after].max() / float(blk.eta)
 
 
 def test_overturning_is_flagged_and_frozen(parapet):
