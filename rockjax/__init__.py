@@ -46,3 +46,20 @@ from .relations import omega_hcrit as omega_hcrit  # noqa: E402
 from .response import Response as Response  # noqa: E402
 
 __version__ = "0.1.0"
+
+__all__ = [
+    "Block",
+    "GroundMotion",
+    "Response",
+    "beta_dejong",
+    "beta_hcrit",
+    "beta_isr",
+    "e_housner",
+    "e_isr",
+    "omega_crit",
+    "omega_hcrit",
+    "relations",
+    "simulate_dem",
+    "simulate_housner",
+    "stable_dt",
+]

@@ -1,0 +1,44 @@
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import rockjax as rj
+from rockjax.constants import G
+
+
+def test_derived_quantities_by_hand():
+    """Reference: hand arithmetic for the 0.25 x 3 m parapet (rho 1800, E 1.8 GPa)."""
+    blk = rj.Block(b=0.25, h=3.0)
+    assert np.isclose(blk.m, 1800 * 0.25 * 3.0)
+    assert np.isclose(blk.R, 0.5 * np.hypot(0.25, 3.0))
+    assert np.isclose(blk.eta, np.arctan(0.25 / 3.0))
+    assert np.isclose(blk.p, np.sqrt(3 * G / (4 * blk.R)))
+    assert np.isclose(blk.I_O, blk.I_c + blk.m * blk.R**2)  # parallel axis theorem
+    assert np.isclose(blk.j_kn, 1.8e9 / 3.0)
+    assert np.isclose(blk.j_ks, blk.j_kn / 2.5)
+
+
+def test_block_is_a_pytree_for_vmap_and_grad():
+    hs = jnp.array([1.5, 3.0, 6.0])
+    etas = jax.vmap(lambda h: rj.Block(b=0.25, h=h).eta)(hs)
+    np.testing.assert_allclose(etas, np.arctan(0.25 / np.asarray(hs)), rtol=1e-14)
+    d_eta = jax.grad(lambda b: rj.Block(b=b, h=3.0).eta)(0.25)
+    assert np.isclose(d_eta, 3.0 / (3.0**2 + 0.25**2))
+
+
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        (dict(b=-0.1, h=3.0), "b must be a positive finite number in m"),
+        (dict(b=0.25, h=0.0), "h must be a positive"),
+        (dict(b=0.25, h=float("nan")), "h must be a positive"),
+        (dict(b=0.25, h=3.0, rho=0.0), "rho must be"),
+        (dict(b=0.25, h=3.0, E=-1.0), "E must be"),
+        (dict(b=0.25, h=3.0, nu=0.6), "nu"),
+        (dict(b=0.25, h=3.0, length=float("inf")), "length must be"),
+    ],
+)
+def test_invalid_geometry_is_refused(kw, match):
+    with pytest.raises(ValueError, match=match):
+        rj.Block(**kw)

@@ -1,0 +1,23 @@
+import jax.numpy as jnp
+import numpy as np
+
+from rockjax.contact import normal_force, shear_force
+
+
+def test_normal_force_conventions():
+    k, beta = 1e8, 0.01
+    # separating corner still penetrated: the 'closed' dashpot pulls, the 'clipped' one cannot
+    f, f_el = normal_force(jnp.array(1e-6), jnp.array(-1.0), k, beta, "closed")
+    assert np.isclose(f_el, 100.0) and np.isclose(f, 100.0 - 1e6)
+    f, _ = normal_force(jnp.array(1e-6), jnp.array(-1.0), k, beta, "clipped")
+    assert f == 0.0
+    f, f_el = normal_force(jnp.array(-1e-6), jnp.array(-1.0), k, beta, "closed")
+    assert f == 0.0 and f_el == 0.0  # open contacts carry nothing
+
+
+def test_shear_force_is_capped_by_mohr_coulomb():
+    """Reference: |F_s| <= tan(phi) N with zero cohesion; an open contact resets the spring."""
+    fs_total, fs = shear_force(0.0, 1.0, 1e-3, 1e8, 1000.0, np.tan(np.radians(30)), 0.0)
+    assert np.isclose(abs(fs), 1000.0 * np.tan(np.radians(30)))
+    _, fs = shear_force(500.0, 0.0, 1e-3, 1e8, 0.0, 1.0, 0.0)
+    assert fs == 0.0
