@@ -38,27 +38,39 @@ def main(argv=None):
         for dashpot in ("closed", "clipped"):
             for frac in FRACTIONS:
                 beta = frac * beta_dj
-                r = rj.simulate_dem(
-                    blk, beta=beta, theta0=0.5 * eta, duration=6.0, dashpot=dashpot
-                )
+                r = rj.simulate_dem(blk, beta=beta, theta0=0.5 * eta, duration=6.0, dashpot=dashpot)
                 e1, e2, e3 = r.e_exp(3)
                 rows.append(
-                    dict(block=name, dashpot=dashpot, beta_over_beta_dejong=frac, beta_s=beta,
-                         e_exp_1=e1, e_exp_2=e2, e_exp_3=e3, e_H=e_h,
-                         dt_s=float(r.extras["dt"]))
+                    dict(
+                        block=name,
+                        dashpot=dashpot,
+                        beta_over_beta_dejong=frac,
+                        beta_s=beta,
+                        e_exp_1=e1,
+                        e_exp_2=e2,
+                        e_exp_3=e3,
+                        e_H=e_h,
+                        dt_s=float(r.extras["dt"]),
+                    )
                 )
     with open(out / "free_rocking_restitution.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    print(f"{'block':9s} {'dashpot':8s} {'beta/bDJ':>8s} {'beta [s]':>9s} "
-          f"{'e_exp1':>7s} {'e_exp2':>7s} {'e_exp3':>7s} {'e_H':>7s}")
+    print(
+        f"{'block':9s} {'dashpot':8s} {'beta/bDJ':>8s} {'beta [s]':>9s} "
+        f"{'e_exp1':>7s} {'e_exp2':>7s} {'e_exp3':>7s} {'e_H':>7s}"
+    )
     for r in rows:
-        print(f"{r['block']:9s} {r['dashpot']:8s} {r['beta_over_beta_dejong']:8.2f} "
-              f"{r['beta_s']:9.5f} {r['e_exp_1']:7.4f} {r['e_exp_2']:7.4f} {r['e_exp_3']:7.4f} "
-              f"{r['e_H']:7.4f}")
-    print(f"({len(rows)} runs in {time.perf_counter() - t_start:.1f} s; "
-          f"csv: {out / 'free_rocking_restitution.csv'})")
+        print(
+            f"{r['block']:9s} {r['dashpot']:8s} {r['beta_over_beta_dejong']:8.2f} "
+            f"{r['beta_s']:9.5f} {r['e_exp_1']:7.4f} {r['e_exp_2']:7.4f} {r['e_exp_3']:7.4f} "
+            f"{r['e_H']:7.4f}"
+        )
+    print(
+        f"({len(rows)} runs in {time.perf_counter() - t_start:.1f} s; "
+        f"csv: {out / 'free_rocking_restitution.csv'})"
+    )
 
 
 if __name__ == "__main__":

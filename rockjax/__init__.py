@@ -19,7 +19,11 @@ if os.environ.get("ROCKJAX_NO_XLA_TUNING", "0") != "1":
     _flags = os.environ.get("XLA_FLAGS", "")
     if "xla_cpu_small_while_loop_byte_threshold" not in _flags:
         if "--xla_backend_extra_options=" in _flags:
-            _flags = re.sub(r"--xla_backend_extra_options=(\S*)", rf"--xla_backend_extra_options=\1,{_THRESHOLD}", _flags)
+            _flags = re.sub(
+                r"--xla_backend_extra_options=(\S*)",
+                rf"--xla_backend_extra_options=\1,{_THRESHOLD}",
+                _flags,
+            )
         else:
             _flags = f"{_flags} --xla_backend_extra_options={_THRESHOLD}".strip()
         os.environ["XLA_FLAGS"] = _flags

@@ -21,7 +21,9 @@ def check_positive(name: str, value, unit: str, hint: str = "") -> None:
         return
     if not np.all(np.isfinite(v)) or not np.all(v > 0):
         fix = f" {hint}" if hint else ""
-        raise ValueError(f"{name} must be a positive finite number in {unit}; got {name}={value}.{fix}")
+        raise ValueError(
+            f"{name} must be a positive finite number in {unit}; got {name}={value}.{fix}"
+        )
 
 
 def check_nonnegative(name: str, value, unit: str, hint: str = "") -> None:

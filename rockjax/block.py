@@ -43,7 +43,9 @@ class Block(eqx.Module):
         check_positive("E", self.E, "Pa", "Give E in pascals, e.g. 1.8e9 for 1800 MPa.")
         nu = concrete(self.nu)
         if nu is not None and not (jnp.all(jnp.isfinite(nu)) and jnp.all((nu > -1) & (nu < 0.5))):
-            raise ValueError(f"nu (Poisson ratio, dimensionless) must lie in (-1, 0.5); got nu={self.nu}.")
+            raise ValueError(
+                f"nu (Poisson ratio, dimensionless) must lie in (-1, 0.5); got nu={self.nu}."
+            )
 
     @property
     def m(self):

@@ -120,14 +120,22 @@ def _trapezoid_areas(n: int, width, length):
 
 
 def dem_params(
-    block: Block, beta=0.0, *, mode: str = "two_sided", gap=0.0, n_sub: int = 2,
-    phi_deg=None, dashpot: str = "closed",
+    block: Block,
+    beta=0.0,
+    *,
+    mode: str = "two_sided",
+    gap=0.0,
+    n_sub: int = 2,
+    phi_deg=None,
+    dashpot: str = "closed",
 ) -> DemParams:
     """Collect the block, interface and damping into a :class:`DemParams` (traceable)."""
     check_choice("mode", mode, MODES)
     check_choice("dashpot", dashpot, DASHPOTS)
     if not isinstance(n_sub, int) or n_sub < 2:
-        raise ValueError(f"n_sub (sub-contacts per face) must be an integer >= 2; got n_sub={n_sub}.")
+        raise ValueError(
+            f"n_sub (sub-contacts per face) must be an integer >= 2; got n_sub={n_sub}."
+        )
     check_nonnegative("beta", beta, "s", "beta is the stiffness-proportional Rayleigh coefficient.")
     check_nonnegative("gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.")
     if phi_deg is None:
@@ -199,8 +207,14 @@ def critical_dt(params: DemParams):
 
 
 def stable_dt(
-    block: Block, beta=0.0, *, mode: str = "two_sided", n_sub: int = 2, gap=0.0,
-    dashpot: str = "closed", safety: float = DT_SAFETY,
+    block: Block,
+    beta=0.0,
+    *,
+    mode: str = "two_sided",
+    n_sub: int = 2,
+    gap=0.0,
+    dashpot: str = "closed",
+    safety: float = DT_SAFETY,
 ) -> float:
     """Default DEM time step [s]: ``safety`` times the explicit stability limit.
 
@@ -251,7 +265,9 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s):
     for j in range(len(state.fs_wall)):
         u, v = params.u_wall[j], params.v_wall[j]
         rx, ry, x_pt, _, xd_pt, yd_pt = _point_kinematics(state, u, v, c, s)
-        fn, fn_el = normal_force(wall_x - x_pt, -xd_pt, params.kn_wall[j], params.beta, params.dashpot)
+        fn, fn_el = normal_force(
+            wall_x - x_pt, -xd_pt, params.kn_wall[j], params.beta, params.dashpot
+        )
         ft, fs = shear_force(
             state.fs_wall[j], yd_pt, dt, params.ks_wall[j], fn_el, params.tan_phi, params.beta
         )
@@ -330,9 +346,18 @@ def initial_state(params: DemParams, theta0=0.0) -> DemState:
     x0 = jnp.where(side == 0, 0.0, up - (up * c + vp * s))
     y0 = -sink - (-up * s + vp * c)
     return DemState(
-        x=x0, y=y0, c=c, s=s, vx=zero, vy=zero, w=zero, theta=theta0,
-        theta_max=jnp.abs(theta0), d_max=zero,
-        fs_base=(zero,) * n_base, fs_wall=(zero,) * params.u_wall.shape[0],
+        x=x0,
+        y=y0,
+        c=c,
+        s=s,
+        vx=zero,
+        vy=zero,
+        w=zero,
+        theta=theta0,
+        theta_max=jnp.abs(theta0),
+        d_max=zero,
+        fs_base=(zero,) * n_base,
+        fs_wall=(zero,) * params.u_wall.shape[0],
     )
 
 
@@ -444,7 +469,9 @@ def simulate_dem(
     """
     for key in save:
         check_choice("save entry", key, SAVE_OPTIONS)
-    params = dem_params(block, beta, mode=mode, gap=gap, n_sub=n_sub, phi_deg=phi_deg, dashpot=dashpot)
+    params = dem_params(
+        block, beta, mode=mode, gap=gap, n_sub=n_sub, phi_deg=phi_deg, dashpot=dashpot
+    )
     _check_theta0(theta0, block, mode)
     ag, ag_v, dt_out, name = _prepare_motion(motion, duration, save_dt)
     limit = _concrete_limit(params, block, beta_max, n_sub, mode, dashpot, dt)
@@ -452,7 +479,9 @@ def simulate_dem(
         dt_target = DT_SAFETY * limit
     else:
         if not (np.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt must be a positive time step in s; got dt={dt}. Or leave dt=None.")
+            raise ValueError(
+                f"dt must be a positive time step in s; got dt={dt}. Or leave dt=None."
+            )
         if limit is not None and dt > limit * (1 + 1e-9):
             raise ValueError(
                 f"dt={dt:.4g} s exceeds the explicit stability limit {limit:.4g} s of this block "
@@ -510,7 +539,9 @@ def _check_theta0(theta0, block, mode):
 def _concrete_limit(params, block, beta_max, n_sub, mode, dashpot, dt):
     """The stability limit [s] as a float, or None when it cannot be known outside the trace."""
     if beta_max is not None:
-        return float(critical_dt(eqx.tree_at(lambda p: p.beta, params, jnp.asarray(beta_max, float))))
+        return float(
+            critical_dt(eqx.tree_at(lambda p: p.beta, params, jnp.asarray(beta_max, float)))
+        )
     try:
         return float(critical_dt(params))
     except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):

@@ -70,7 +70,9 @@ class GroundMotion(eqx.Module):
         t = np.asarray(t, dtype=float)
         ag = np.asarray(ag, dtype=float)
         if t.ndim != 1 or t.shape != ag.shape or t.size < 2:
-            raise ValueError(f"t and ag must be 1-D of equal length >= 2; got {t.shape} and {ag.shape}.")
+            raise ValueError(
+                f"t and ag must be 1-D of equal length >= 2; got {t.shape} and {ag.shape}."
+            )
         steps = np.diff(t)
         dt = float(np.mean(steps))
         worst = int(np.argmax(np.abs(steps - dt)))
@@ -83,8 +85,14 @@ class GroundMotion(eqx.Module):
 
     @classmethod
     def ricker(
-        cls, pga: float, period: float, *, dt: float = 0.005, duration: float | None = None,
-        t0: float | None = None, name: str | None = None,
+        cls,
+        pga: float,
+        period: float,
+        *,
+        dt: float = 0.005,
+        duration: float | None = None,
+        t0: float | None = None,
+        name: str | None = None,
     ) -> GroundMotion:
         """Symmetric Ricker wavelet ("Mexican hat") pulse.
 
@@ -109,8 +117,14 @@ class GroundMotion(eqx.Module):
 
     @classmethod
     def sine_cycle(
-        cls, pga: float, period: float, *, dt: float = 0.005, duration: float | None = None,
-        t0: float = 0.0, name: str | None = None,
+        cls,
+        pga: float,
+        period: float,
+        *,
+        dt: float = 0.005,
+        duration: float | None = None,
+        t0: float = 0.0,
+        name: str | None = None,
     ) -> GroundMotion:
         """One full sine cycle ``ag = pga sin(2 pi (t - t0) / T)`` for ``t0 <= t <= t0 + T``, zero after.
 

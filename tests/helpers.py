@@ -19,8 +19,10 @@ def housner_time_to_impact(p, eta, theta0):
     def integrand(u):
         th = theta0 * (1.0 - u * u)
         rate2 = 2.0 * p**2 * (np.cos(eta - theta0) - np.cos(eta - th))
-        return 2.0 * theta0 * u / np.sqrt(rate2) if u > 0 else 2.0 * np.sqrt(theta0) / (
-            np.sqrt(2.0 * p**2 * np.sin(eta - theta0))
+        return (
+            2.0 * theta0 * u / np.sqrt(rate2)
+            if u > 0
+            else 2.0 * np.sqrt(theta0) / (np.sqrt(2.0 * p**2 * np.sin(eta - theta0)))
         )
 
     return quad(integrand, 0.0, 1.0, epsabs=1e-13, epsrel=1e-13, limit=200)[0]

@@ -109,7 +109,12 @@ def test_one_sided_rebounds_off_the_wall():
     blk = rj.Block(**SQUAT)
     gap = 0.002
     r = rj.simulate_dem(
-        blk, beta=0.0, mode="one_sided", gap=gap, theta0=0.5 * blk.eta, duration=3.0,
+        blk,
+        beta=0.0,
+        mode="one_sided",
+        gap=gap,
+        theta0=0.5 * blk.eta,
+        duration=3.0,
         save_dt=0.0005,
     )
     th = np.asarray(r.theta)
