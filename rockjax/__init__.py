@@ -34,6 +34,7 @@ import jax  # noqa: E402
 # penetrations are ~1e-6 of the block size and energies are compared to 1e-6 relative).
 jax.config.update("jax_enable_x64", True)
 
+from . import plot as plot  # noqa: E402  (matplotlib is imported lazily inside)
 from . import relations as relations  # noqa: E402
 from .block import Block as Block  # noqa: E402
 from .dem import simulate_dem as simulate_dem  # noqa: E402
@@ -62,6 +63,7 @@ __all__ = [
     "e_isr",
     "omega_crit",
     "omega_hcrit",
+    "plot",
     "relations",
     "simulate_dem",
     "simulate_housner",

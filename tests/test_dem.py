@@ -176,19 +176,19 @@ def test_jvp_and_grad_wrt_beta_match_finite_differences(parapet):
 
 
 def test_grad_wrt_geometry_and_amplitude(parapet):
-    """Reference: central finite differences w.r.t. E, h and the record amplitude."""
+    """Reference: central finite differences w.r.t. b, E, h and the record amplitude."""
     beta = 0.5 * rj.beta_dejong(parapet)
-    dt = 0.8 * rj.stable_dt(rj.Block(b=0.25, h=2.9, E=2.0e9), beta)
+    dt = 0.8 * rj.stable_dt(rj.Block(b=0.26, h=2.9, E=2.0e9), beta)
     base = rj.GroundMotion.sine_cycle(pga=-1.5 * G * 0.25 / 3.0, period=0.5, duration=1.5)
 
-    def out(E, h, amp):
+    def out(b, E, h, amp):
         gm = rj.GroundMotion(ag=amp * jnp.asarray(base.ag), dt=base.dt)
-        blk = rj.Block(b=0.25, h=h, E=E)
+        blk = rj.Block(b=b, h=h, E=E)
         return rj.simulate_dem(blk, gm, beta=beta, dt=dt).theta[-1]
 
-    x0 = (1.8e9, 3.0, 1.0)
-    g = jax.grad(out, argnums=(0, 1, 2))(*x0)
-    for k in range(3):
+    x0 = (0.25, 1.8e9, 3.0, 1.0)
+    g = jax.grad(out, argnums=(0, 1, 2, 3))(*x0)
+    for k in range(4):
         h = 1e-6 * x0[k]
         xp = list(x0)
         xm = list(x0)
