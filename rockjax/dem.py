@@ -371,8 +371,19 @@ def initial_state(params: DemParams, theta0=0.0) -> DemState:
 
 
 @eqx.filter_jit
-def _run(params: DemParams, state0: DemState, ag, ag_v, dt, n_in: int, save: tuple, throw: bool):
-    """Outer scan over record samples; returns (final state, overturned, status) and outputs."""
+def _run(
+    params: DemParams,
+    state0: DemState,
+    ag,
+    ag_v,
+    dt,
+    dt_out: float,
+    n_in: int,
+    save: tuple,
+    throw: bool,
+) -> Response:
+    """Outer scan over record samples, assembled into a :class:`Response` (all inside one jit,
+    so a call dispatches no eager operation after the run)."""
     n_base, n_wall = len(state0.fs_base), len(state0.fs_wall)
     ag_next = jnp.concatenate([ag[1:], ag[-1:]])
     agv_next = jnp.concatenate([ag_v[1:], ag_v[-1:]])
@@ -428,7 +439,23 @@ def _run(params: DemParams, state0: DemState, ag, ag_v, dt, n_in: int, save: tup
             + ". Pass throw=False to get a per-run status instead."
         )
         out["theta"] = eqx.error_if(out["theta"], status != STATUS_OK, msg)
-    return (_unpack(z, n_base, n_wall), overturned, status), out
+    final = _unpack(z, n_base, n_wall)
+    extras = {"x": out["x"], "y": out["y"], "d_max": final.d_max, "dt": dt}
+    if "normal_forces" in out:
+        extras["normal_forces"] = out["normal_forces"]
+    return Response(
+        t=jnp.arange(ag.shape[0]) * dt_out,
+        theta=out["theta"],
+        theta_dot=out["theta_dot"],
+        d=out["d"],
+        overturned=overturned,
+        status=status,
+        theta_max=final.theta_max,
+        eta=params.eta,
+        b=params.b,
+        energy=out.get("energy"),
+        extras=extras,
+    )
 
 
 def simulate_dem(
@@ -501,27 +528,8 @@ def simulate_dem(
     n_in = max(1, math.ceil(dt_out / dt_target - 1e-9))
     step = dt_out / n_in
     state0 = initial_state(params, theta0)
-    (final, overturned, status), out = _run(
-        params, state0, ag, ag_v, jnp.asarray(step), n_in, tuple(save), throw
-    )
-    t = jnp.arange(ag.shape[0]) * dt_out
-    extras = {"x": out["x"], "y": out["y"], "d_max": final.d_max, "dt": jnp.asarray(step)}
-    for key in ("normal_forces",):
-        if key in out:
-            extras[key] = out[key]
-    return Response(
-        t=t,
-        theta=out["theta"],
-        theta_dot=out["theta_dot"],
-        d=out["d"],
-        overturned=overturned,
-        status=status,
-        theta_max=final.theta_max,
-        eta=params.eta,
-        b=params.b,
-        energy=out.get("energy"),
-        extras=extras,
-    )
+    # step as an array: traced, so a new step (a new beta) does not recompile
+    return _run(params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, tuple(save), throw)
 
 
 def _fmt(x):
@@ -577,13 +585,15 @@ def _prepare_motion(motion, duration, save_dt):
             f"motion must be a rockjax.GroundMotion (or None for free rocking); got {type(motion)}."
         )
     dt_out = motion.dt
-    ag = jnp.asarray(motion.ag, float)
-    ag_v = jnp.zeros_like(ag) if motion.ag_v is None else jnp.asarray(motion.ag_v, float)
+    # NumPy for concrete records (no eager JAX dispatch); jnp when the record is traced (vmap)
+    xp = np if concrete(motion.ag) is not None else jnp
+    ag = xp.asarray(motion.ag, float)
+    ag_v = xp.zeros_like(ag) if motion.ag_v is None else xp.asarray(motion.ag_v, float)
     if duration is not None:
         n = int(math.floor(duration / dt_out + 1e-9)) + 1
         if n < 2:
             raise ValueError(f"duration={duration} s is shorter than two samples of {dt_out} s.")
         pad = max(0, n - ag.shape[0])
-        ag = jnp.pad(ag, (0, pad))[:n]
-        ag_v = jnp.pad(ag_v, (0, pad))[:n]
+        ag = xp.pad(ag, (0, pad))[:n]
+        ag_v = xp.pad(ag_v, (0, pad))[:n]
     return ag, ag_v, dt_out, motion.name
