@@ -1,0 +1,546 @@
+"""The ``rockjax`` command line.
+
+``rockjax demo [--out DIR] [--quick]`` runs the main job on built-in examples from the paper
+(Galvez et al., Sect. 2): free rocking of a parapet with DEM and Housner, a one-sided facade,
+a Ricker pulse, and the DEM ``e(beta)`` sweep behind Eq. (3). It writes figures (PNG), time
+histories (CSV) and ``results.json`` into ``DIR`` and prints a summary.
+
+Errors in the input are reported as one ``error: ...`` line on stderr with exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime
+import json
+import math
+import os
+import platform
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from . import __version__, plot
+from .block import Block
+from .constants import G
+from .dem import simulate_dem, stable_dt
+from .housner import simulate_housner
+from .motion import GroundMotion
+from .relations import beta_dejong, beta_isr, e_housner, e_isr, free_rocking_period
+from .response import STATUS_MESSAGES, Response
+
+# ----------------------------------------------------------------------------- demo inputs
+PARAPET_B, PARAPET_H = 0.25, 3.0  # [m], the paper's reference parapet
+FACADE_B, FACADE_H = 0.2, 1.5  # [m]
+FACADE_GAP = 0.001  # facade-to-return-wall gap [m]
+RELEASE = 0.5  # release rotation theta0 / eta [-] of every free-rocking run
+RICKER_PGA, RICKER_PERIOD = 4.0, 0.5  # [m/s^2], [s]: rocks the parapet hard, without overturning
+N_BOUNCES = 3  # bounces evaluated with Eq. (6), as the paper does
+BETA_MAX_RATIO = 1.5  # the sweep spans 0 .. 1.5 beta_DeJong
+N_BETA, N_BETA_QUICK = 7, 4  # 0, 0.25, ..., 1.5 beta_DeJong; 0, 0.5, 1, 1.5 beta_DeJong
+
+# Every parapet run (free, pulse, sweep) shares the output step, the duration and the DEM step,
+# so each model compiles once for all of them: compilation, not stepping, is what costs time.
+DT_OUT = 0.005  # output step [s] of the parapet runs (and the Ricker record's step)
+PARAPET_DURATION = 8.0  # [s], at least: 3 bounces at e = 1 (free-rocking period 2.4 s)
+FACADE_DT_OUT = 0.002  # [s]: facade bounces are short
+FACADE_DURATION = 1.5  # [s]: the facade is at rest after about 1 s
+
+
+def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
+    """Entry point of the ``rockjax`` command.
+
+    Args:
+        argv: Command-line arguments without the program name; default ``sys.argv[1:]``.
+
+    Returns:
+        The exit status: 0 on success, 2 on invalid input (after printing ``error: ...``).
+    """
+    parser = _parser()
+    args = parser.parse_args(None if argv is None else [os.fspath(a) for a in argv])
+    try:
+        return args.run(args)
+    except ValueError as err:
+        message = " ".join(str(err).split("\n"))
+        print(f"error: {message}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # the reader (e.g. `| head`) went away: stop quietly, as Unix tools do
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="rockjax",
+        description="Differentiable rocking of URM parapets and facades (DEM and Housner), on JAX.",
+        allow_abbrev=False,
+    )
+    parser.add_argument("--version", action="version", version=f"rockjax {__version__}")
+    sub = parser.add_subparsers(title="commands", dest="command", required=True)
+    demo = sub.add_parser(
+        "demo",
+        help="run the main job on built-in examples and write figures, CSV and results.json",
+        description=(
+            "Free rocking of a parapet (DEM at beta=0 and beta_DeJong, Housner with e_H), a "
+            "one-sided facade (DEM vs Housner), a Ricker pulse on the parapet, and the DEM "
+            "e(beta) sweep of the paper's Eq. (3)."
+        ),
+        allow_abbrev=False,
+    )
+    demo.add_argument("--out", default="out", metavar="DIR", help="output folder (default: out)")
+    demo.add_argument(
+        "--quick",
+        action="store_true",
+        help=(
+            f"a {N_BETA_QUICK}-point e(beta) sweep, closed dashpot only "
+            f"(default: {N_BETA} points, closed and clipped)"
+        ),
+    )
+    demo.add_argument(
+        "--b",
+        type=float,
+        default=PARAPET_B,
+        metavar="M",
+        help=f"parapet thickness [m] (default {PARAPET_B})",
+    )
+    demo.add_argument(
+        "--h",
+        type=float,
+        default=PARAPET_H,
+        metavar="M",
+        help=f"parapet height [m] (default {PARAPET_H})",
+    )
+    demo.add_argument(
+        "--n-beta",
+        type=int,
+        default=None,
+        metavar="N",
+        help=f"points of the e(beta) sweep, >= 2 (default {N_BETA}, quick {N_BETA_QUICK})",
+    )
+    demo.set_defaults(run=_demo)
+    return parser
+
+
+# ----------------------------------------------------------------------------- demo
+
+
+def _demo(args: argparse.Namespace) -> int:
+    t_start = time.perf_counter()
+    n_beta = args.n_beta if args.n_beta is not None else (N_BETA_QUICK if args.quick else N_BETA)
+    if n_beta < 2:
+        raise ValueError(f"--n-beta must be an integer >= 2; got {n_beta}.")
+    parapet = Block(b=args.b, h=args.h)  # raises ValueError on bad geometry
+    facade = Block(b=FACADE_B, h=FACADE_H)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} exists and is not a folder; give a folder path.")
+    out.mkdir(parents=True, exist_ok=True)
+
+    eta = float(parapet.eta)
+    e_h = float(e_housner(parapet))
+    b_dj = float(beta_dejong(parapet))
+    betas = np.union1d(b_dj * np.linspace(0.0, BETA_MAX_RATIO, n_beta), [b_dj])
+    # the step of the most damped run, for every parapet DEM run: one compilation
+    dt_dem = stable_dt(parapet, float(betas[-1]))
+    theta0 = RELEASE * eta
+    # long enough for bounce 3 (1.5 periods of undamped rocking) of any --b/--h, with margin
+    period = float(free_rocking_period(parapet.p, parapet.eta, theta0))
+    duration = max(PARAPET_DURATION, DT_OUT * math.ceil(2.0 * period / DT_OUT))
+    mode_txt = "quick" if args.quick else "full"
+    print(f"rockjax {__version__} demo ({mode_txt}) -> {out}/", flush=True)
+    print(
+        f"parapet {args.b:g} x {args.h:g} m: eta = {eta:.4f} rad, e_H = {e_h:.4f} (Eq. 2), "
+        f"beta_DeJong = {b_dj:.4g} s; DEM step {dt_dem:.3g} s",
+        flush=True,
+    )
+    results: dict = {
+        "rockjax_version": __version__,
+        "versions": _versions(),
+        "command": "rockjax " + " ".join(_argv_of(args)),
+        "quick": bool(args.quick),
+        "parapet": _block_info(parapet) | {"e_H": e_h, "beta_dejong_s": b_dj},
+        "facade": _block_info(facade)
+        | {"e_1sr": abs(float(e_isr(facade))), "beta_1sr_s": float(beta_isr(facade))},
+        "note": "wall_s of the first run of each model includes its JIT compilation.",
+    }
+    wall: dict[str, float] = {}
+
+    # (a) parapet free rocking -----------------------------------------------------------
+    print(f"[1/4] parapet free rocking from {RELEASE:g} eta ({duration:g} s)", flush=True)
+
+    def dem_free(beta, dashpot="closed"):
+        return simulate_dem(
+            parapet,
+            beta=beta,
+            theta0=theta0,
+            duration=duration,
+            save_dt=DT_OUT,
+            dt=dt_dem,
+            dashpot=dashpot,
+        )
+
+    runs_a = {
+        "dem_beta0": ("DEM, beta = 0", lambda: dem_free(0.0), {"model": "dem", "beta_s": 0.0}),
+        "dem_beta_dejong": (
+            f"DEM, beta = beta_DeJong = {b_dj:.3g} s",
+            lambda: dem_free(b_dj),
+            {"model": "dem", "beta_s": b_dj},
+        ),
+        "housner_e_H": (
+            f"Housner, e = e_H = {e_h:.3f}",
+            lambda: simulate_housner(parapet, e=e_h, theta0=theta0, duration=duration, dt=DT_OUT),
+            {"model": "housner", "e": e_h},
+        ),
+    }
+    free_a, info_a = _run_all(runs_a, wall, "parapet_free")
+    results["parapet_free_rocking"] = {
+        "theta0_over_eta": RELEASE,
+        "duration_s": duration,
+        "runs": info_a,
+    }
+    _print_e_table(info_a, runs_a)
+
+    # (b) facade free rocking ------------------------------------------------------------
+    eta_f = float(facade.eta)
+    e_1sr = abs(float(e_isr(facade)))
+    beta_f = float(beta_isr(facade))
+    print(
+        f"[2/4] facade {FACADE_B:g} x {FACADE_H:g} m one-sided free rocking from {RELEASE:g} eta "
+        f"(gap {FACADE_GAP * 1e3:g} mm)",
+        flush=True,
+    )
+    runs_b = {
+        "dem_beta_1sr": (
+            f"DEM, beta = beta_1SR = {beta_f:.3g} s (Eq. 7)",
+            lambda: simulate_dem(
+                facade,
+                beta=beta_f,
+                mode="one_sided",
+                gap=FACADE_GAP,
+                theta0=RELEASE * eta_f,
+                duration=FACADE_DURATION,
+                save_dt=FACADE_DT_OUT,
+            ),
+            {"model": "dem", "beta_s": beta_f, "gap_m": FACADE_GAP},
+        ),
+        "housner_e_1sr": (
+            f"Housner, e = |e_1SR| = {e_1sr:.3f} (Eq. 5)",
+            lambda: simulate_housner(
+                facade,
+                e=e_1sr,
+                mode="one_sided",
+                theta0=RELEASE * eta_f,
+                duration=FACADE_DURATION,
+                dt=FACADE_DT_OUT,
+            ),
+            {"model": "housner", "e": e_1sr},
+        ),
+    }
+    free_b, info_b = _run_all(runs_b, wall, "facade_free")
+    results["facade_free_rocking"] = {
+        "theta0_over_eta": RELEASE,
+        "duration_s": FACADE_DURATION,
+        "mode": "one_sided",
+        "runs": info_b,
+    }
+    _print_e_table(info_b, runs_b)
+
+    # (c) Ricker pulse on the parapet ------------------------------------------------------
+    gm = GroundMotion.ricker(
+        pga=RICKER_PGA,
+        period=RICKER_PERIOD,
+        dt=DT_OUT,
+        duration=duration,
+        name=f"Ricker pulse, pga {RICKER_PGA / G:.2f} g, T = {RICKER_PERIOD:g} s",
+    )
+    print(
+        f"[3/4] Ricker pulse on the parapet: pga = {RICKER_PGA:g} m/s^2 "
+        f"({RICKER_PGA / G:.2f} g), T = {RICKER_PERIOD:g} s",
+        flush=True,
+    )
+    runs_c = {
+        "dem_beta_dejong": (
+            "DEM, beta = beta_DeJong",
+            lambda: simulate_dem(parapet, gm, beta=b_dj, dt=dt_dem),
+            {"model": "dem", "beta_s": b_dj},
+        ),
+        "housner_e_H": (
+            "Housner, e = e_H",
+            lambda: simulate_housner(parapet, gm, e=e_h),
+            {"model": "housner", "e": e_h},
+        ),
+    }
+    pulse, info_c = _run_all(runs_c, wall, "ricker")
+    results["parapet_ricker"] = {
+        "pga_m_s2": RICKER_PGA,
+        "period_s": RICKER_PERIOD,
+        "duration_s": duration,
+        "runs": info_c,
+    }
+    for key, resp in pulse.items():
+        print(
+            f"      {runs_c[key][0]:<40s} max |theta|/eta = {float(resp.theta_max) / eta:.3f}"
+            f"{'  OVERTURNED' if bool(resp.overturned) else ''}   ({info_c[key]['wall_s']:.1f} s)",
+            flush=True,
+        )
+
+    # (d) e(beta) sweep --------------------------------------------------------------------
+    dashpots = ("closed",) if args.quick else ("closed", "clipped")
+    print(
+        f"[4/4] DEM e(beta) sweep: {betas.size} values of beta in [0, {BETA_MAX_RATIO:g} "
+        f"beta_DeJong], dashpot {' and '.join(dashpots)}",
+        flush=True,
+    )
+    sweep: dict[str, np.ndarray] = {}
+    t0 = time.perf_counter()
+    n_total = betas.size * len(dashpots)
+    k = 0
+    for dashpot in dashpots:
+        rows = []
+        for beta in betas:
+            k += 1
+            resp = dem_free(float(beta), dashpot)
+            e = resp.e_exp(N_BOUNCES)
+            rows.append(e)
+            print(
+                f"      [{k:>2d}/{n_total}] {dashpot:<7s} beta = {beta:.4g} s "
+                f"({beta / b_dj:.2f} beta_DJ): e_exp = {_fmt_e(e)}   "
+                f"{time.perf_counter() - t0:5.1f} s",
+                flush=True,
+            )
+        sweep[dashpot] = np.asarray(rows)
+    wall["e_beta_sweep"] = time.perf_counter() - t0
+    results["e_beta_sweep"] = {
+        "beta_s": betas,
+        "beta_over_beta_dejong": betas / b_dj,
+        "theta0_over_eta": RELEASE,
+        "dt_s": dt_dem,
+        "e_H": e_h,
+        "e_exp": {d: v for d, v in sweep.items()},
+        "e_exp_mean": {d: _nanmean_rows(v) for d, v in sweep.items()},
+    }
+
+    # outputs ------------------------------------------------------------------------------
+    t_io = time.perf_counter()
+    files = _write_outputs(out, parapet, facade, gm, free_a, runs_a, free_b, runs_b, pulse, runs_c)
+    files += _write_sweep(out, betas, b_dj, e_h, sweep)
+    wall["figures_and_files"] = time.perf_counter() - t_io
+    wall["total"] = time.perf_counter() - t_start
+    results["wall_s"] = wall
+    results["files"] = sorted([*files, "results.json"])
+    with open(out / "results.json", "w") as f:
+        json.dump(_jsonable(results), f, indent=2)
+        f.write("\n")
+
+    bad = [
+        f"{section}/{key}: {STATUS_MESSAGES.get(run['status'], run['status'])}"
+        for section, info in (("parapet", info_a), ("facade", info_b), ("ricker", info_c))
+        for key, run in info.items()
+        if run["status"] != 0
+    ]
+    print(f"wrote {len(results['files'])} files to {out}/ in {wall['total']:.1f} s", flush=True)
+    for line in bad:
+        print(f"warning: {line}", file=sys.stderr)
+    return 0
+
+
+def _run_all(runs, wall, prefix):
+    """Run each ``{key: (label, thunk, inputs)}``; return the responses and their summaries."""
+    responses: dict[str, Response] = {}
+    info: dict[str, dict] = {}
+    for key, (label, thunk, inputs) in runs.items():
+        t0 = time.perf_counter()
+        resp = jax.block_until_ready(thunk())
+        elapsed = time.perf_counter() - t0
+        wall[f"{prefix}/{key}"] = elapsed
+        responses[key] = resp
+        info[key] = inputs | {
+            "label": label,
+            "e_exp": resp.e_exp(N_BOUNCES),
+            "theta_max_over_eta": float(resp.theta_max) / float(resp.eta),
+            "overturned": bool(resp.overturned),
+            "status": int(resp.status),
+            "wall_s": elapsed,
+        }
+    return responses, info
+
+
+def _print_e_table(info, runs):
+    print(f"      e_exp (Eq. 6) of bounces 1-{N_BOUNCES}:", flush=True)
+    for key, run in info.items():
+        print(
+            f"      {runs[key][0]:<44s} {_fmt_e(run['e_exp'])}   ({run['wall_s']:.1f} s)",
+            flush=True,
+        )
+
+
+def _fmt_e(e) -> str:
+    return " ".join("  -  " if not np.isfinite(v) else f"{v:.3f}" for v in np.asarray(e))
+
+
+def _nanmean_rows(e: np.ndarray) -> np.ndarray:
+    counts = np.sum(np.isfinite(e), axis=1)
+    sums = np.nansum(e, axis=1)
+    return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+
+
+def _write_outputs(out, parapet, facade, gm, free_a, runs_a, free_b, runs_b, pulse, runs_c):
+    files = []
+    labels_a = {runs_a[k][0]: r for k, r in free_a.items()}
+    ax = plot.time_history(
+        labels_a, title=f"Parapet {parapet.b:g} x {parapet.h:g} m, free rocking from 0.5 eta"
+    )
+    files.append(_save(ax, out / "parapet_free_rocking.png"))
+    ax = plot.peaks_decay(
+        labels_a,
+        n_bounces=6,
+        e_reference={f"e_H = {float(e_housner(parapet)):.3f}": float(e_housner(parapet))},
+        title=f"Parapet {parapet.b:g} x {parapet.h:g} m: peak decay",
+    )
+    files.append(_save(ax, out / "parapet_peaks.png"))
+    ax = plot.time_history(
+        {runs_b[k][0]: r for k, r in free_b.items()},
+        title=(
+            f"Facade {facade.b:g} x {facade.h:g} m, one-sided free rocking "
+            f"(gap {FACADE_GAP * 1e3:g} mm)"
+        ),
+    )
+    files.append(_save(ax, out / "facade_free_rocking.png"))
+
+    plt = plot._pyplot()
+    fig, (ax_g, ax_t) = plt.subplots(
+        2, 1, figsize=(7.0, 5.5), sharex=True, height_ratios=[1, 2], layout="constrained"
+    )
+    plot.ground_motion(gm, ax=ax_g, title=f"Parapet {parapet.b:g} x {parapet.h:g} m, Ricker pulse")
+    ax_g.set_xlabel("")
+    plot.time_history({runs_c[k][0]: r for k, r in pulse.items()}, ax=ax_t)
+    files.append(_save(ax_t, out / "parapet_ricker.png"))
+
+    files.append(_write_csv_series(out / "parapet_free_rocking.csv", free_a))
+    files.append(_write_csv_series(out / "facade_free_rocking.csv", free_b))
+    files.append(_write_csv_series(out / "parapet_ricker.csv", pulse, ag=np.asarray(gm.ag)))
+    return files
+
+
+def _write_sweep(out, betas, b_dj, e_h, sweep):
+    series = {f"DEM, dashpot={d}": v for d, v in sweep.items()}
+    ax = plot.e_beta(
+        betas, series, e_h=e_h, beta_dejong=b_dj, title="DEM free rocking: e(beta), Eq. (3)"
+    )
+    png = _save(ax, out / "e_beta.png")
+    path = out / "e_beta.csv"
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        head = ["dashpot", "beta_s", "beta_over_beta_dejong"]
+        w.writerow(head + [f"e_exp_{n}" for n in range(1, N_BOUNCES + 1)] + ["e_exp_mean"])
+        for dashpot, e in sweep.items():
+            mean = _nanmean_rows(e)
+            for beta, row, m in zip(betas, e, mean):
+                w.writerow(
+                    [dashpot, f"{beta:.6g}", f"{beta / b_dj:.4f}", *map(_csv_num, row)]
+                    + [_csv_num(m)]
+                )
+    return [png, path.name]
+
+
+def _write_csv_series(path: Path, responses: dict[str, Response], ag=None) -> str:
+    """One CSV of ``t`` [s] and ``theta`` [rad] per response (all on the same time grid)."""
+    keys = list(responses)
+    t = np.asarray(responses[keys[0]].t)
+    cols = [t]
+    head = ["t_s"]
+    if ag is not None:
+        cols.append(np.pad(ag, (0, max(0, t.size - ag.size)))[: t.size])
+        head.append("ag_m_s2")
+    for key in keys:
+        theta = np.asarray(responses[key].theta)
+        if theta.shape != t.shape:
+            raise ValueError(
+                f"{key}: time grid differs from {keys[0]} ({theta.shape} vs {t.shape})."
+            )
+        cols.append(theta)
+        head.append(f"theta_{key}_rad")
+    np.savetxt(
+        path, np.column_stack(cols), delimiter=",", header=",".join(head), comments="", fmt="%.9g"
+    )
+    return path.name
+
+
+def _save(ax, path: Path) -> str:
+    ax.figure.savefig(path, dpi=130)
+    plot.close(ax)
+    return path.name
+
+
+def _csv_num(x) -> str:
+    return "" if not np.isfinite(x) else f"{x:.6f}"
+
+
+def _block_info(block: Block) -> dict:
+    return {
+        "b_m": float(block.b),
+        "h_m": float(block.h),
+        "rho_kg_m3": float(block.rho),
+        "E_pa": float(block.E),
+        "nu": float(block.nu),
+        "eta_rad": float(block.eta),
+        "p_rad_s": float(block.p),
+    }
+
+
+def _argv_of(args: argparse.Namespace) -> list[str]:
+    parts = ["demo", "--out", str(args.out), "--b", f"{args.b:g}", "--h", f"{args.h:g}"]
+    if args.quick:
+        parts.append("--quick")
+    if args.n_beta is not None:
+        parts += ["--n-beta", str(args.n_beta)]
+    return parts
+
+
+def _versions() -> dict:
+    import jaxlib
+    import matplotlib
+
+    return {
+        "rockjax": __version__,
+        "jax": jax.__version__,
+        "jaxlib": jaxlib.__version__,
+        "numpy": np.__version__,
+        "matplotlib": matplotlib.__version__,
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "jax_backend": jax.default_backend(),
+        "cpu_count": os.cpu_count(),
+        "xla_flags": os.environ.get("XLA_FLAGS", ""),
+        "date_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+    }
+
+
+def _jsonable(x):
+    """Convert arrays and NumPy scalars to lists and floats; NaN and inf become null."""
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray | jax.Array):
+        return _jsonable(np.asarray(x).tolist())
+    if isinstance(x, bool | np.bool_):
+        return bool(x)
+    if isinstance(x, int | np.integer):
+        return int(x)
+    if isinstance(x, float | np.floating):
+        return float(x) if math.isfinite(x) else None
+    return x
+
+
+if __name__ == "__main__":
+    sys.exit(main())
