@@ -262,3 +262,20 @@ def test_traced_beta_without_dt_is_refused(parapet):
         jax.grad(lambda b: rj.simulate_dem(parapet, beta=b, theta0=0.01, duration=0.1).theta[-1])(
             0.001
         )
+
+
+def test_vertical_ground_motion_scales_the_settlement(parapet):
+    """Reference: statics; an upward base acceleration a_v loads the springs with m (g + a_v)."""
+    n = 2001
+    still = rj.GroundMotion(ag=np.zeros(n), dt=0.005)
+    lifted = rj.GroundMotion(ag=np.zeros(n), dt=0.005, ag_v=np.full(n, 0.5 * G))
+    beta = rj.beta_dejong(parapet)  # damps the vertical bounce from the step in load
+    sink0 = 0.5 * float(parapet.h) - float(
+        rj.simulate_dem(parapet, still, beta=beta).extras["y"][-1]
+    )
+    sink1 = 0.5 * float(parapet.h) - float(
+        rj.simulate_dem(parapet, lifted, beta=beta).extras["y"][-1]
+    )
+    k_total = float(parapet.j_kn * parapet.b * parapet.length)
+    assert np.isclose(sink0, float(parapet.m) * G / k_total, rtol=1e-9)
+    assert np.isclose(sink1, 1.5 * sink0, rtol=1e-6)
