@@ -289,7 +289,7 @@ def _demo(args: argparse.Namespace) -> int:
     for key, resp in pulse.items():
         print(
             f"      {runs_c[key][0]:<40s} max |theta|/eta = {float(resp.theta_max) / eta:.3f}"
-            f"{'  OVERTURNED' if bool(resp.overturned) else ''}   ({info_c[key]['wall_s']:.1f} s)",
+            f"{'  OVERTURNED' if bool(resp.overturned) else ''}   ({_fmt_s(info_c[key]['wall_s'])})",
             flush=True,
         )
 
@@ -314,7 +314,7 @@ def _demo(args: argparse.Namespace) -> int:
             print(
                 f"      [{k:>2d}/{n_total}] {dashpot:<7s} beta = {beta:.4g} s "
                 f"({beta / b_dj:.2f} beta_DJ): e_exp = {_fmt_e(e)}   "
-                f"{time.perf_counter() - t0:5.1f} s",
+                f"{_fmt_s(time.perf_counter() - t0):>8s}",
                 flush=True,
             )
         sweep[dashpot] = np.asarray(rows)
@@ -353,6 +353,11 @@ def _demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fmt_s(seconds: float) -> str:
+    """A wall time, in ms below one second (compiled runs take a few ms)."""
+    return f"{seconds * 1e3:.1f} ms" if seconds < 1.0 else f"{seconds:.1f} s"
+
+
 def _run_all(runs, wall, prefix):
     """Run each ``{key: (label, thunk, inputs)}``; return the responses and their summaries."""
     responses: dict[str, Response] = {}
@@ -378,7 +383,7 @@ def _print_e_table(info, runs):
     print(f"      e_exp (Eq. 6) of bounces 1-{N_BOUNCES}:", flush=True)
     for key, run in info.items():
         print(
-            f"      {runs[key][0]:<44s} {_fmt_e(run['e_exp'])}   ({run['wall_s']:.1f} s)",
+            f"      {runs[key][0]:<44s} {_fmt_e(run['e_exp'])}   ({_fmt_s(run['wall_s'])})",
             flush=True,
         )
 
