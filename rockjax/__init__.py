@@ -35,12 +35,16 @@ import jax  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 from . import plot as plot  # noqa: E402  (matplotlib is imported lazily inside)
+from . import records as records  # noqa: E402
 from . import relations as relations  # noqa: E402
 from .block import Block as Block  # noqa: E402
 from .dem import simulate_dem as simulate_dem  # noqa: E402
 from .dem import stable_dt as stable_dt  # noqa: E402
 from .housner import simulate_housner as simulate_housner  # noqa: E402
 from .motion import GroundMotion as GroundMotion  # noqa: E402
+from .records import read_at2 as read_at2  # noqa: E402
+from .records import read_csv as read_csv  # noqa: E402
+from .records import write_at2 as write_at2  # noqa: E402
 from .relations import beta_dejong as beta_dejong  # noqa: E402
 from .relations import beta_hcrit as beta_hcrit  # noqa: E402
 from .relations import beta_isr as beta_isr  # noqa: E402
@@ -64,8 +68,12 @@ __all__ = [
     "omega_crit",
     "omega_hcrit",
     "plot",
+    "read_at2",
+    "read_csv",
+    "records",
     "relations",
     "simulate_dem",
     "simulate_housner",
     "stable_dt",
+    "write_at2",
 ]

@@ -1,0 +1,455 @@
+r"""Ground-motion record files: PEER NGA ``.AT2`` and plain CSV/text, and component rotation.
+
+This is the only rockjax module that reads record files. Every reader returns a
+:class:`rockjax.GroundMotion` in SI units (accelerations in m/s^2, times in s), named after the
+file's stem, with what the header says about the record in its ``metadata``. A malformed file
+raises ``ValueError`` naming the file, the line and the fix.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from ._checks import check_choice, check_positive
+from .constants import G
+from .motion import GroundMotion
+
+# A decimal number as Fortran and C print it: `.0050`, `0.005`, `5.0E-03`, `-.4524259E-02`,
+# `1.0D-03` (Fortran double-precision exponent).
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[EeDd][-+]?\d+)?"
+_NUMBER_RE = re.compile(_NUMBER)
+_NON_FINITE = {"nan", "inf", "infinity"}
+# `NPTS=  7814, DT= .0050 SEC,` (NGA-West2, PEER-SMD, older PEA, hand-edited files) ...
+_NPTS_RE = re.compile(r"\bNPTS\s*=\s*(\d+)", re.IGNORECASE)
+_DT_RE = re.compile(rf"\bDT\s*=\s*({_NUMBER})", re.IGNORECASE)
+# ... or `4164    0.0100    NPTS, DT` (NGA-West1: the numbers first).
+_WEST1_RE = re.compile(rf"^\s*(\d+)\s+({_NUMBER})\s+NPTS\s*,\s*DT\b", re.IGNORECASE)
+_UNITS_RE = re.compile(r"\bUNITS\s+OF\s+(\S+)", re.IGNORECASE)
+_DATE_RE = re.compile(r"\b\d{1,2}/\d{1,2}/\d{2,4}\b")
+_NPTS_EXAMPLE = "'NPTS=  7814, DT= .0050 SEC' (or '4164    0.0100    NPTS, DT')"
+
+
+def read_at2(path: str | os.PathLike, *, g: float = G) -> GroundMotion:
+    """Read a PEER NGA ``.AT2`` acceleration file.
+
+    Header variants accepted (REFERENCES §4.2): NGA-West2 ``NPTS=  7814, DT= .0050 SEC,``;
+    PEER-SMD 2000 and older PEA ``NPTS=  7802, DT= .00500 SEC``; NGA-West1
+    ``4164    0.0100    NPTS, DT``; hand-edited ``NPTS=  8000, DT= .0050`` without ``SEC``;
+    any text after ``SEC,`` (filter notes). ``DT`` may read ``.0050``, ``0.005``, ``5.0E-03``
+    or ``5.0D-03``. Every number after the NPTS/DT line is a sample, in any layout (5 per
+    line, 1 per line, a short last line), separated by blanks or commas; CRLF line ends and
+    blank lines are fine.
+
+    The units are those the header states (``UNITS OF G``, normally on line 3); ``CM/S^2``
+    (``CM/SEC/SEC``, ``CM/S/S``, ``GAL``) and ``M/S^2`` are converted too. A header that
+    states no units is read as g, the AT2 convention, and says so in ``metadata["units"]``.
+
+    The name is the file stem (``RSN1063_NORTHR_RRS228``). ``metadata`` holds ``file``,
+    ``title`` (line 1), ``header`` (line 2 as written) and ``units``, and, when line 2 reads
+    ``event, date, station, component`` (NGA-West2) or ``event date time, station,
+    component`` (PEER-SMD), also ``event``, ``date``, ``station`` and ``component``.
+
+    Args:
+        path: The ``.AT2`` file.
+        g: Standard gravity [m/s^2] for records in units of g.
+
+    Returns:
+        The record, accelerations in m/s^2.
+
+    Raises:
+        ValueError: for a velocity (``.VT2``) or displacement (``.DT2``) file, or a malformed
+            file: empty, no NPTS/DT line, ``DT <= 0``, a token that is not a number, a NaN or
+            infinite sample, unknown units, or a sample count that differs from ``NPTS``.
+            The message names the file and the line.
+    """
+    path = Path(path)
+    check_positive("g", g, "m/s^2", "The default is standard gravity, 9.80665.")
+    kinds = {".VT2": "velocity", ".DT2": "displacement"}
+    if path.suffix.upper() in kinds:
+        raise ValueError(
+            f"{path}: a PEER {path.suffix} file holds a {kinds[path.suffix.upper()]} time "
+            "series; read_at2 reads accelerations. Read the matching .AT2 file instead."
+        )
+    lines = _read_lines(path)
+
+    at = next((i for i, line in enumerate(lines) if "NPTS" in line.upper()), None)
+    if at is None:
+        raise ValueError(
+            f"{path}: no NPTS/DT line found in its {len(lines)} lines. An AT2 header's line 4 "
+            f"reads like {_NPTS_EXAMPLE}. Add it, or read a bare series with "
+            "read_csv(path, time_column=False, dt=...)."
+        )
+    npts, dt = _parse_npts_dt(path, at + 1, lines[at])
+    header = [line.strip() for line in lines[:at]]
+    factor, units = _header_units(path, header, g)
+
+    values, last = _read_values(path, lines, first=at + 1)
+    if npts < 2:
+        raise ValueError(
+            f"{path}, line {at + 1}: NPTS={npts}; a record needs at least 2 samples. "
+            "Check the NPTS field and the data below it."
+        )
+    if values.size != npts:
+        hint = (
+            "The file looks truncated: download it again, or set NPTS to the number of values "
+            "if the shorter record is intended."
+            if values.size < npts
+            else "Check the NPTS field, or delete the extra values at the end of the file."
+        )
+        where = f"lines {at + 2}-{last}" if last > at + 1 else f"after line {at + 1}"
+        raise ValueError(
+            f"{path}, line {at + 1}: NPTS={npts} but {values.size} values were found "
+            f"({where}). {hint}"
+        )
+
+    meta = {"file": path.name, "units": units}
+    if header:
+        meta["title"] = header[0]
+    if len(header) >= 2:
+        meta["header"] = header[1]
+        meta.update(_describe(header[1]))
+    return GroundMotion(ag=values * factor, dt=dt, name=path.stem, meta=tuple(meta.items()))
+
+
+def write_at2(
+    path: str | os.PathLike,
+    motion: GroundMotion,
+    *,
+    g: float = G,
+    significant_digits: int = 7,
+) -> None:
+    """Write a record as a PEER NGA-West2 style ``.AT2`` file, in units of g.
+
+    Four header lines (title; ``event, date, station, component`` from the record's
+    metadata, else its ``header`` entry, else its name; ``ACCELERATION TIME SERIES IN UNITS
+    OF G``; ``NPTS=  7814, DT= 0.005 SEC,``) and then the samples, 5 per line, in E format
+    with ``significant_digits`` digits (NGA-West2 prints 7: ``  3.654112E-04``), so a round
+    trip through :func:`read_at2` keeps each sample to a relative ``0.5 * 10**(1 -
+    significant_digits)``. ``DT`` is written with all its digits (``repr``), not rounded to
+    4 decimals as in NGA files, so the time axis survives the round trip exactly.
+
+    Args:
+        path: The file to write (overwritten if it exists).
+        motion: The record; only its horizontal ``ag`` is written.
+        g: Standard gravity [m/s^2] used to convert to units of g.
+        significant_digits: Digits per sample, 1 to 17.
+
+    Raises:
+        ValueError: if ``motion`` has a vertical component (an AT2 file holds one component)
+            or ``significant_digits`` is out of range.
+    """
+    check_positive("g", g, "m/s^2", "The default is standard gravity, 9.80665.")
+    if isinstance(significant_digits, bool) or significant_digits not in range(1, 18):
+        raise ValueError(
+            f"significant_digits must be an integer from 1 to 17; got {significant_digits!r}. "
+            "NGA-West2 files use 7; 17 writes float64 samples exactly."
+        )
+    if motion.ag_v is not None:
+        raise ValueError(
+            f"record {motion.name!r} has a vertical component ag_v; an AT2 file holds one "
+            "component. Write each to its own file: write_at2(path_v, GroundMotion(ag="
+            "motion.ag_v, dt=motion.dt)) and the horizontal one with ag_v=None."
+        )
+    info = motion.metadata
+    fields = [info.get(key) for key in ("event", "date", "station", "component")]
+    if all(fields):
+        describe = ", ".join(fields)
+    else:
+        describe = info.get("header", motion.name)
+    lines = [
+        "PEER NGA STRONG MOTION DATABASE RECORD",
+        describe,
+        "ACCELERATION TIME SERIES IN UNITS OF G",
+        f"NPTS={motion.n:>6d}, DT= {float(motion.dt)!r} SEC,",
+    ]
+    ag_g = np.asarray(motion.ag, dtype=float) / g
+    width, decimals = significant_digits + 6, significant_digits - 1
+    # one blank before every field keeps 3-digit exponents (1.0E-100) from touching
+    cells = [f" {x:{width}.{decimals}E}" for x in ag_g]
+    lines += ["".join(cells[i : i + 5]) for i in range(0, len(cells), 5)]
+    Path(path).write_text("\n".join(lines) + "\n", encoding="ascii")
+
+
+def read_csv(
+    path: str | os.PathLike,
+    *,
+    units: Literal["g", "m/s2", "cm/s2"] = "g",
+    time_column: bool = True,
+    dt: float | None = None,
+    delimiter: str | None = None,
+    name: str | None = None,
+    g: float = G,
+    rtol: float = 1e-6,
+) -> GroundMotion:
+    """Read a record from a plain text or CSV file: two columns ``t, a`` or one column ``a``.
+
+    Blank lines and lines starting with ``#`` are skipped; the first other line may be a
+    header (any line with a token that is not a number). With ``time_column=True`` the
+    times must be uniform to ``rtol`` (see :meth:`GroundMotion.from_time_series`); the first
+    time is taken as ``t = 0`` and, if it was not 0, kept in ``metadata["t_start"]``.
+
+    Args:
+        path: The file.
+        units: Units of the acceleration column: ``"g"``, ``"m/s2"`` or ``"cm/s2"``.
+        time_column: True for ``t [s], a`` rows; False for ``a`` rows (then pass ``dt``).
+        dt: Sampling step [s] of a one-column file.
+        delimiter: Column separator; default any run of blanks, commas or semicolons.
+        name: Record name; default the file stem.
+        g: Standard gravity [m/s^2] for ``units="g"``.
+        rtol: Relative tolerance on the uniformity of the time column [-].
+
+    Returns:
+        The record, accelerations in m/s^2.
+
+    Raises:
+        ValueError: for a missing or misplaced ``dt``, a row with the wrong number of
+            columns, a token that is not a number, a NaN or infinite value, fewer than 2
+            rows or non-uniform times; the message names the file and the line.
+    """
+    path = Path(path)
+    check_choice("units", units, {"g", "m/s2", "cm/s2"})
+    check_positive("g", g, "m/s^2", "The default is standard gravity, 9.80665.")
+    if time_column and dt is not None:
+        raise ValueError(
+            f"{path}: dt={dt} was given but time_column=True reads the times from the file. "
+            "Pass dt only with time_column=False."
+        )
+    if not time_column:
+        if dt is None:
+            raise ValueError(
+                f"{path}: a one-column file needs its sampling step: pass dt=... in seconds, "
+                "or time_column=True if the first column holds the times."
+            )
+        check_positive("dt", dt, "s", "Use the record's sampling step, e.g. dt=0.01.")
+    ncols = 2 if time_column else 1
+    columns = "t [s], a" if time_column else "a"
+
+    header, rows = None, []
+    for lineno, line in enumerate(_read_lines(path), start=1):
+        text = line.strip()
+        if not text or text.startswith("#"):
+            continue
+        split = r"[\s,;]+" if delimiter is None else re.escape(delimiter)
+        tokens = [tok.strip() for tok in re.split(split, text) if tok.strip()]
+        if header is None and not rows and not all(_is_number_or_non_finite(t) for t in tokens):
+            header = text
+            continue
+        row = [_to_float(path, lineno, tok) for tok in tokens]
+        if len(row) != ncols:
+            raise ValueError(
+                f"{path}, line {lineno}: {len(row)} values, expected {ncols} ({columns}). "
+                "Check delimiter= and time_column=."
+            )
+        rows.append(row)
+    if len(rows) < 2:
+        raise ValueError(
+            f"{path}: found {len(rows)} data rows; a record needs at least 2. "
+            "Check that the file holds the series, one sample per line."
+        )
+    data = np.asarray(rows, dtype=float)
+    factor = {"g": g, "m/s2": 1.0, "cm/s2": 0.01}[units]
+    name = path.stem if name is None else name
+    meta = {"file": path.name, "units": units}
+    if header is not None:
+        meta["header"] = header
+    if time_column:
+        motion = GroundMotion.from_time_series(data[:, 0], data[:, 1] * factor, name, rtol=rtol)
+        if data[0, 0] != 0.0:
+            meta["t_start"] = repr(float(data[0, 0]))
+    else:
+        motion = GroundMotion(ag=data[:, 0] * factor, dt=float(dt), name=name)
+    return motion.with_metadata(**meta)
+
+
+def rotate(
+    a: GroundMotion,
+    b: GroundMotion,
+    azimuth_a_deg: float | int,
+    azimuth_b_deg: float | int,
+    azimuth_deg: float | int,
+    *,
+    name: str | None = None,
+) -> GroundMotion:
+    r"""Rotate two orthogonal horizontal components to the azimuth ``azimuth_deg``.
+
+    Azimuths are clockwise from north. The record along azimuth phi is the projection
+
+    $$a(\varphi) = a_A\cos(\varphi - \theta_A) + a_B\cos(\varphi - \theta_B),$$
+
+    which for ``theta_B = theta_A + 90`` is
+    ``a_A cos(phi - theta_A) + a_B sin(phi - theta_A)``; e.g. Nahanni S1 to 280 degrees is
+    ``-0.8660 a_070 - 0.5 a_160``. Rotating to ``theta_A`` returns ``a`` and to ``theta_B``
+    returns ``b`` exactly, and ``a(phi)^2 + a(phi + 90)^2 = a_A^2 + a_B^2`` at every sample.
+    A vertical component, if both records carry the same one, is kept.
+
+    Args:
+        a: First horizontal component.
+        b: Second horizontal component, same ``dt`` and length as ``a``.
+        azimuth_a_deg: Azimuth theta_A of ``a`` [deg], clockwise from north.
+        azimuth_b_deg: Azimuth theta_B of ``b`` [deg], ``theta_A +- 90``.
+        azimuth_deg: Target azimuth phi [deg].
+        name: Name of the result; default ``"<a.name>_rot<azimuth>"``.
+
+    Returns:
+        The rotated record; its metadata keeps the entries ``a`` and ``b`` share and adds
+        ``azimuth_deg`` and ``rotated_from``.
+
+    Raises:
+        ValueError: if the components are not orthogonal, differ in ``dt`` or length, or
+            carry different vertical components.
+    """
+    gap = (azimuth_b_deg - azimuth_a_deg) % 360.0
+    if min(abs(gap - 90.0), abs(gap - 270.0)) > 1e-6:
+        raise ValueError(
+            f"components must be orthogonal: azimuths {azimuth_a_deg} and {azimuth_b_deg} deg "
+            f"are {gap:g} deg apart (mod 360), not +-90. Check the component azimuths, e.g. "
+            "70 and 160 for Nahanni S1."
+        )
+    if not math.isclose(a.dt, b.dt, rel_tol=1e-9) or a.n != b.n:
+        raise ValueError(
+            f"components must share dt and length; got {a.name!r}: dt={a.dt} s, n={a.n} and "
+            f"{b.name!r}: dt={b.dt} s, n={b.n}. Resample with .resampled(dt) and trim to "
+            "the common length first."
+        )
+    if a.ag_v is None and b.ag_v is None:
+        ag_v = None
+    elif (
+        a.ag_v is not None
+        and b.ag_v is not None
+        and np.array_equal(np.asarray(a.ag_v), np.asarray(b.ag_v))
+    ):
+        ag_v = a.ag_v
+    else:
+        raise ValueError(
+            f"{a.name!r} and {b.name!r} carry different vertical components (ag_v); the "
+            "rotated record can keep only one. Drop ag_v from both or give both the same."
+        )
+    ag = _cos_deg(azimuth_deg - azimuth_a_deg) * a.ag + _cos_deg(azimuth_deg - azimuth_b_deg) * b.ag
+    shared = [item for item in a.meta if item in b.meta]
+    meta = dict(shared)
+    meta["azimuth_deg"] = f"{azimuth_deg:g}"
+    meta["rotated_from"] = f"{a.name} ({azimuth_a_deg:g} deg), {b.name} ({azimuth_b_deg:g} deg)"
+    name = f"{a.name}_rot{azimuth_deg:g}" if name is None else name
+    return GroundMotion(ag=ag, dt=a.dt, name=name, ag_v=ag_v, meta=tuple(meta.items()))
+
+
+# --------------------------------------------------------------------------------- helpers
+def _read_lines(path: Path) -> list[str]:
+    # latin-1 decodes any byte: station names in old files are not always ASCII
+    text = path.read_bytes().decode("latin-1")
+    if not text.strip():
+        raise ValueError(f"{path}: the file is empty. Check the download or the path.")
+    return text.splitlines()  # handles LF, CRLF and CR
+
+
+def _parse_npts_dt(path: Path, lineno: int, line: str) -> tuple[int, float]:
+    if (west1 := _WEST1_RE.search(line)) is not None:
+        npts_text, dt_text = west1.groups()
+    else:
+        npts, dt = _NPTS_RE.search(line), _DT_RE.search(line)
+        if npts is None or dt is None:
+            missing = " and ".join(k for k, m in (("NPTS", npts), ("DT", dt)) if m is None)
+            raise ValueError(
+                f"{path}, line {lineno}: cannot read {missing} from {line.strip()!r}. "
+                f"Expected {_NPTS_EXAMPLE}."
+            )
+        npts_text, dt_text = npts.group(1), dt.group(1)
+    dt = float(dt_text.replace("D", "E").replace("d", "e"))
+    if not math.isfinite(dt) or dt <= 0.0:
+        raise ValueError(
+            f"{path}, line {lineno}: DT={dt_text} s; the sampling step must be positive. "
+            "Correct the DT field, e.g. 'DT= .0050 SEC'."
+        )
+    return int(npts_text), dt
+
+
+def _header_units(path: Path, header: list[str], g: float) -> tuple[float, str]:
+    # line 3 states the units in every PEER variant; look at the others only if it does not
+    order = [2, *(i for i in range(len(header)) if i != 2)]
+    for i in (i for i in order if i < len(header)):
+        found = _UNITS_RE.search(header[i])
+        if found is None:
+            continue
+        upper = header[i].upper()
+        for kind in ("VELOCITY", "DISPLACEMENT"):
+            if kind in upper:
+                raise ValueError(
+                    f"{path}, line {i + 1}: the header says this is a {kind.lower()} time series "
+                    f"({header[i]!r}); read_at2 reads accelerations. Read the matching .AT2 file."
+                )
+        token = found.group(1).strip(".,;:").upper()
+        unit = token.replace("**", "^").replace("SEC", "S")
+        unit = re.sub(r"/S(?:/S|\^?2)$", "/S^2", unit)
+        factors = {"G": g, "GAL": 0.01, "CM/S^2": 0.01, "M/S^2": 1.0}
+        if unit not in factors:
+            raise ValueError(
+                f"{path}, line {i + 1}: unknown units {token!r}. Accepted: G, CM/S^2 "
+                "(CM/SEC/SEC, CM/S/S, GAL) and M/S^2; convert the file or fix the units text."
+            )
+        return factors[unit], token
+    return g, "G (assumed: the header states no units)"
+
+
+def _read_values(path: Path, lines: list[str], first: int) -> tuple[np.ndarray, int]:
+    """All numbers on lines[first:], and the (1-based) number of the last line holding one."""
+    values, last = [], first
+    for lineno, line in enumerate(lines[first:], start=first + 1):
+        tokens = [tok for tok in re.split(r"[\s,]+", line) if tok]
+        if tokens:
+            values.extend(_to_float(path, lineno, tok) for tok in tokens)
+            last = lineno
+    return np.asarray(values, dtype=float), last
+
+
+def _is_number_or_non_finite(token: str) -> bool:
+    return _NUMBER_RE.fullmatch(token) is not None or token.lower().lstrip("+-") in _NON_FINITE
+
+
+def _to_float(path: Path, lineno: int, token: str) -> float:
+    if _NUMBER_RE.fullmatch(token) is None:
+        if token.lower().lstrip("+-") in _NON_FINITE:
+            raise ValueError(
+                f"{path}, line {lineno}: non-finite sample {token!r}. Records must be finite: "
+                "clean or trim the record first."
+            )
+        raise ValueError(
+            f"{path}, line {lineno}: {token!r} is not a number. Fix or delete it (samples are "
+            "decimal numbers such as -.4524259E-02)."
+        )
+    value = float(token.replace("D", "E").replace("d", "e"))
+    if not math.isfinite(value):
+        raise ValueError(
+            f"{path}, line {lineno}: {token!r} overflows float64. Check the value and its exponent."
+        )
+    return value
+
+
+def _describe(line: str) -> dict[str, str]:
+    """Event, date, station and component from header line 2, where its layout is recognised."""
+    fields = [field.strip() for field in line.split(",")]
+    if len(fields) == 4 and _DATE_RE.fullmatch(fields[1]):  # NGA-West2
+        return dict(zip(("event", "date", "station", "component"), fields, strict=True))
+    if len(fields) == 3 and (date := _DATE_RE.search(fields[0])) is not None:  # PEER-SMD
+        event = fields[0][: date.start()].strip()
+        return {
+            "event": event,
+            "date": fields[0][date.start() :].strip(),
+            "station": fields[1],
+            "component": fields[2],
+        }
+    return {}
+
+
+def _cos_deg(angle_deg: float | int) -> float:
+    # exact at multiples of 90 deg, so rotating to a component's own azimuth returns it
+    # bit for bit instead of mixing in 6e-17 of the other one
+    quarter = angle_deg / 90.0
+    if quarter == round(quarter):
+        return (1.0, 0.0, -1.0, 0.0)[int(round(quarter)) % 4]
+    return math.cos(math.radians(angle_deg))

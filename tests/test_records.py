@@ -1,0 +1,408 @@
+"""Tests for rockjax.records: the PEER AT2 and CSV readers, the AT2 writer and rotation.
+
+References: REFERENCES.md §4.2 (the AT2 header variants, whose header lines are quoted here
+verbatim) and §4.1 (the rotation formula and its Nahanni example). The sample files are
+written here, each in its variant's own number format.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import rockjax as rj
+from rockjax import records
+from rockjax.constants import G
+
+# 7 significant digits (E14.6 and the PEA .dddddddE format) round to half a unit in the
+# 7th digit, i.e. a relative 5e-7 at most; the 1e-12 covers the float64 g conversion.
+RTOL_7_DIGITS = 5e-7 + 1e-12
+# 17 significant digits print a float64 exactly; converting to g and back costs 2 ulp.
+RTOL_17_DIGITS = 4.5e-16
+
+
+def _samples_g(n):
+    """A deterministic record in g with both signs, small and zero values."""
+    k = np.arange(n)
+    y = 0.3 * np.sin(0.05 * k) + 0.01 * np.cos(0.3 * k)
+    y[0] = 0.0
+    return y
+
+
+def _e14_6(values):  # NGA-West2: '  3.654112E-04'
+    return [f"{v:14.6E}" for v in values]
+
+
+def _pea_e(v):  # PEER-SMD / PEA: '  -.4524259E-02', mantissa in [0.1, 1), no leading zero
+    if v == 0.0:
+        return "   .0000000E+00"
+    exp = math.floor(math.log10(abs(v))) + 1
+    digits = round(abs(v) / 10.0**exp * 1e7)
+    if digits >= 10**7:
+        digits, exp = digits // 10, exp + 1
+    return f"{'  -' if v < 0 else '   '}.{digits:07d}E{exp:+03d}"
+
+
+def _write(path, header, cells, per_line=5, newline="\n", tail=""):
+    rows = ["".join(cells[i : i + per_line]) for i in range(0, len(cells), per_line)]
+    path.write_bytes((newline.join([*header, *rows]) + newline + tail).encode("ascii"))
+    return path
+
+
+def _assert_printed(actual, expected_g, rtol=RTOL_7_DIGITS):
+    expected = np.asarray(expected_g) * G
+    err = np.abs(np.asarray(actual) - expected)
+    assert np.all(err <= rtol * np.abs(expected)), float(
+        np.max(err / np.maximum(1e-300, np.abs(expected)))
+    )
+
+
+# ------------------------------------------------------------------ AT2 header variants
+def test_nga_west2(tmp_path):
+    """REFERENCES §4.2 item 1: NGA-West2 header, trailing comma, E14.6 data 5 per line."""
+    y = _samples_g(7814)
+    y[:2] = [3.654112e-04, 3.647600e-04]
+    header = [
+        "PEER NGA STRONG MOTION DATABASE RECORD",
+        "Northern Calif-03, 12/21/1954, Ferndale City Hall, 44",
+        "ACCELERATION TIME SERIES IN UNITS OF G",
+        "NPTS=  7814, DT= .0050 SEC,",
+    ]
+    gm = records.read_at2(_write(tmp_path / "RSN36_NCALIF.FH_FRN044.AT2", header, _e14_6(y)))
+    assert gm.n == 7814 and gm.dt == 0.005 and gm.name == "RSN36_NCALIF.FH_FRN044"
+    assert np.asarray(gm.ag).dtype == np.float64
+    _assert_printed(gm.ag, y)
+    assert gm.ag[0] == 3.654112e-04 * G
+    assert gm.metadata["event"] == "Northern Calif-03"
+    assert gm.metadata["date"] == "12/21/1954"
+    assert gm.metadata["station"] == "Ferndale City Hall"
+    assert gm.metadata["component"] == "44"
+    assert gm.metadata["units"] == "G"
+    assert gm.metadata["title"] == "PEER NGA STRONG MOTION DATABASE RECORD"
+
+
+def test_peer_smd_2000(tmp_path):
+    """REFERENCES §4.2 item 2: PEER-SMD 2000 header with filter text, '-.4524259E-02' data."""
+    y = _samples_g(7802)
+    y[:2] = [-0.4524259e-02, -0.5453609e-02]
+    header = [
+        "PEER STRONG MOTION DATABASE RECORD. PROCESSING BY PACIFIC ENGINEERING.",
+        "IMPERIAL VALLEY 10/15/79 2316, EL CENTRO ARRAY #12, 140 (USGS STATION 931)",
+        "ACCELERATION TIME HISTORY IN UNITS OF G. FILTER POINTS: HP=0.1 Hz LP=40.0 Hz",
+        "NPTS=  7802, DT= .00500 SEC",
+    ]
+    cells = [_pea_e(v) for v in y]
+    assert "".join(cells[:2]) == "  -.4524259E-02  -.5453609E-02"  # the quoted data line
+    gm = records.read_at2(_write(tmp_path / "H-E12140.AT2", header, cells))
+    assert gm.n == 7802 and gm.dt == 0.005
+    _assert_printed(gm.ag, y)
+    assert gm.ag[0] == -0.4524259e-02 * G
+    assert gm.metadata["event"] == "IMPERIAL VALLEY"
+    assert gm.metadata["date"] == "10/15/79 2316"
+    assert gm.metadata["station"] == "EL CENTRO ARRAY #12"
+    assert gm.metadata["component"] == "140 (USGS STATION 931)"
+
+
+def test_nga_west1_numbers_first(tmp_path):
+    """REFERENCES §4.2 item 3: line 4 '4164    0.0100    NPTS, DT'."""
+    y = _samples_g(4164)
+    header = [
+        "PEER NGA STRONG MOTION DATABASE RECORD",
+        "Imperial Valley-06, 10/15/1979, El Centro Array #12, 140",
+        "ACCELERATION TIME HISTORY IN UNITS OF G",
+        "4164    0.0100    NPTS, DT",
+    ]
+    gm = records.read_at2(_write(tmp_path / "PUL164.AT2", header, _e14_6(y)))
+    assert gm.n == 4164 and gm.dt == 0.01
+    _assert_printed(gm.ag, y)
+
+
+def test_older_pea(tmp_path):
+    """REFERENCES §4.2 item 4: 'PACIFIC ENGINEERING AND ANALYSIS STRONG-MOTION DATA'."""
+    y = _samples_g(3930)
+    header = [
+        "PACIFIC ENGINEERING AND ANALYSIS STRONG-MOTION DATA",
+        "LOMA PRIETA 10/18/89 00:05, CAPITOLA, 000 (CDMG STATION 47125)",
+        "ACCELERATION TIME HISTORY IN UNITS OF G",
+        "NPTS=  3930, DT= .00500 SEC",
+    ]
+    gm = records.read_at2(_write(tmp_path / "CAP000.AT2", header, [_pea_e(v) for v in y]))
+    assert gm.n == 3930 and gm.dt == 0.005
+    _assert_printed(gm.ag, y)
+    assert gm.metadata["station"] == "CAPITOLA"
+
+
+def test_hand_edited_no_sec_one_per_line(tmp_path):
+    """REFERENCES §4.2 item 5: 'NPTS=  8000, DT= .0050' (no SEC), one value per line."""
+    y = _samples_g(8000)
+    header = [
+        "PEER NGA STRONG MOTION DATABASE RECORD",
+        "Northridge-01, 1/17/1994, Rinaldi Receiving Sta, 228",
+        "ACCELERATION TIME SERIES IN UNITS OF G",
+        "NPTS=  8000, DT= .0050",
+    ]
+    cells = [f"{v:.7f}" for v in y]  # hand edits often leave plain decimals
+    gm = records.read_at2(_write(tmp_path / "GM11.AT2", header, cells, per_line=1))
+    assert gm.n == 8000 and gm.dt == 0.005
+    np.testing.assert_allclose(gm.ag, np.round(y, 7) * G, rtol=1e-15, atol=0)
+
+
+def test_trailing_filter_text_crlf_short_last_line_and_blank_lines(tmp_path):
+    """REFERENCES §4.2 item 5 and the parser rules: text after 'SEC,', CRLF, ragged end."""
+    y = _samples_g(13)  # 13 = 2 full lines + a short line of 3
+    header = [
+        "PEER NGA STRONG MOTION DATABASE RECORD",
+        "Northern Calif-03, 12/21/1954, Ferndale City Hall, 44",
+        "ACCELERATION TIME SERIES IN UNITS OF G",
+        "NPTS=    13, DT= .0050 SEC, 0 POLE @ 30.00000 HZ, 0 POLE @ 0.10000 HZ",
+    ]
+    path = _write(tmp_path / "filt.AT2", header, _e14_6(y), newline="\r\n", tail="\r\n   \r\n")
+    gm = records.read_at2(path)
+    assert gm.n == 13 and gm.dt == 0.005
+    _assert_printed(gm.ag, y)
+
+
+@pytest.mark.parametrize("dt_text", [".0050", "0.005", "5.0E-03", "5.0e-3", "5.0D-03", "5.D-3"])
+def test_dt_forms(tmp_path, dt_text):
+    """REFERENCES §4.2 parser rules: '.0050', '0.005', '5.0E-03' and Fortran 'D' exponents."""
+    header = [
+        "T",
+        "x",
+        "ACCELERATION TIME SERIES IN UNITS OF G",
+        f"NPTS=     6, DT= {dt_text} SEC,",
+    ]
+    cells = ["  1.0D-02", "  -2.5D-03", "  0.0", "  3.0E-2", "  .5", "  -1."]
+    gm = records.read_at2(_write(tmp_path / "dt.AT2", header, cells))
+    assert gm.dt == 0.005
+    np.testing.assert_allclose(gm.ag, np.array([1e-2, -2.5e-3, 0.0, 3e-2, 0.5, -1.0]) * G, rtol=0)
+
+
+@pytest.mark.parametrize(
+    "units_line, factor",
+    [
+        ("ACCELERATION TIME SERIES IN UNITS OF G", G),
+        ("ACCELERATION TIME SERIES IN UNITS OF CM/S^2", 0.01),
+        ("ACCELERATION TIME SERIES IN UNITS OF CM/SEC/SEC", 0.01),
+        ("ACCELERATION TIME HISTORY IN UNITS OF CM/S/S.", 0.01),
+        ("ACCELERATION TIME SERIES IN UNITS OF M/S^2", 1.0),
+    ],
+)
+def test_units_from_line_3(tmp_path, units_line, factor):
+    """REFERENCES §4.2: the units come from line 3; cm/s^2 and m/s^2 are converted to m/s^2."""
+    header = ["T", "x", units_line, "NPTS=     3, DT= .0100 SEC,"]
+    gm = records.read_at2(_write(tmp_path / "u.AT2", header, ["  1.0", "  -2.0", "  0.5"]))
+    np.testing.assert_allclose(gm.ag, np.array([1.0, -2.0, 0.5]) * factor, rtol=1e-15)
+
+
+def test_custom_g_and_assumed_units(tmp_path):
+    header = ["T", "x", "NPTS=     2, DT= .0100 SEC,"]  # no units line
+    gm = records.read_at2(_write(tmp_path / "g.AT2", header, ["  1.0", "  -1.0"]), g=9.81)
+    np.testing.assert_allclose(gm.ag, [9.81, -9.81], rtol=1e-15)
+    assert gm.metadata["units"].startswith("G (assumed")
+
+
+# ------------------------------------------------------------------ refusals and malformed files
+HEADER = ["PEER NGA STRONG MOTION DATABASE RECORD", "x", "ACCELERATION TIME SERIES IN UNITS OF G"]
+
+
+@pytest.mark.parametrize("suffix, kind", [(".VT2", "velocity"), (".DT2", "displacement")])
+def test_velocity_and_displacement_files_are_refused(tmp_path, suffix, kind):
+    path = _write(tmp_path / f"rec{suffix}", [*HEADER, "NPTS=     2, DT= .0050 SEC,"], ["1", "2"])
+    with pytest.raises(ValueError, match=rf"rec\{suffix}.*{kind}.*\.AT2 file"):
+        records.read_at2(path)
+
+
+def test_velocity_header_in_at2_file_is_refused(tmp_path):
+    header = ["T", "x", "VELOCITY TIME SERIES IN UNITS OF CM/S", "NPTS=     2, DT= .0050 SEC,"]
+    with pytest.raises(ValueError, match=r"v\.AT2, line 3: .*velocity time series"):
+        records.read_at2(_write(tmp_path / "v.AT2", header, ["1", "2"]))
+
+
+@pytest.mark.parametrize(
+    "npts_line, cells, match",
+    [
+        ("NPTS=     3, DT= 0.0 SEC,", ["1", "2", "3"], r"bad\.AT2, line 4: DT=0\.0 s.*positive"),
+        ("NPTS=     3, DT= -.005 SEC,", ["1", "2", "3"], r"line 4: DT=-\.005 s.*positive"),
+        ("NPTS=     3, SEC", ["1", "2", "3"], r"line 4: cannot read DT from 'NPTS=     3, SEC'"),
+        (
+            "NPTS=    12, DT= .0050 SEC,",
+            ["  1.0"] * 10,
+            r"line 4: NPTS=12 but 10 values were found \(lines 5-6\).*truncated",
+        ),
+        (
+            "NPTS=     4, DT= .0050 SEC,",
+            ["  1.0"] * 6,
+            r"line 4: NPTS=4 but 6 values were found.*extra values",
+        ),
+        ("NPTS=     3, DT= .0050 SEC,", [], r"NPTS=3 but 0 values were found"),
+        ("NPTS=     1, DT= .0050 SEC,", ["  1.0"], r"line 4: NPTS=1; a record needs at least 2"),
+        (
+            "NPTS=     7, DT= .0050 SEC,",
+            ["  1.0"] * 6 + ["  0.1x"],
+            r"line 6: '0\.1x' is not a number",
+        ),
+        (
+            "NPTS=     3, DT= .0050 SEC,",
+            ["  1.0", "  NaN", "  2.0"],
+            r"line 5: non-finite sample 'NaN'",
+        ),
+        (
+            "NPTS=     3, DT= .0050 SEC,",
+            ["  1.0", "  1.0E999", "  2.0"],
+            r"line 5: '1\.0E999' overflows",
+        ),
+    ],
+)
+def test_malformed_files_name_the_line(tmp_path, npts_line, cells, match):
+    """Malformed files raise ValueError naming the file, the line and what is wrong."""
+    path = _write(tmp_path / "bad.AT2", [*HEADER, npts_line], cells)
+    with pytest.raises(ValueError, match=match):
+        records.read_at2(path)
+
+
+def test_empty_no_header_and_unknown_units(tmp_path):
+    empty = tmp_path / "empty.AT2"
+    empty.write_text("\n  \n")
+    with pytest.raises(ValueError, match=r"empty\.AT2: the file is empty"):
+        records.read_at2(empty)
+    bare = _write(tmp_path / "bare.AT2", [], ["  1.0"] * 10)
+    with pytest.raises(ValueError, match=r"bare\.AT2: no NPTS/DT line found in its 2 lines"):
+        records.read_at2(bare)
+    header = ["T", "x", "ACCELERATION IN UNITS OF IN/S^2", "NPTS=     2, DT= .0050 SEC,"]
+    with pytest.raises(ValueError, match=r"line 3: unknown units 'IN/S\^2'"):
+        records.read_at2(_write(tmp_path / "in.AT2", header, ["1", "2"]))
+
+
+# ------------------------------------------------------------------ writer: round trip
+def test_write_read_round_trip(tmp_path):
+    """write_at2 -> read_at2 keeps every sample to the printed precision, dt and metadata."""
+    y = _samples_g(1003)
+    y[5], y[6] = 1.234567891e-120, -9.87654321e-150  # 3-digit exponents must not touch
+    gm = rj.GroundMotion(ag=y * G, dt=1.0 / 300.0, name="RSN1063_NORTHR_RRS228").with_metadata(
+        event="Northridge-01", date="1/17/1994", station="Rinaldi Receiving Sta", component="228"
+    )
+    path = tmp_path / f"{gm.name}.AT2"
+    records.write_at2(path, gm)
+    lines = path.read_text().splitlines()
+    assert lines[1] == "Northridge-01, 1/17/1994, Rinaldi Receiving Sta, 228"
+    assert lines[3].startswith("NPTS=  1003, DT= ") and lines[3].endswith(" SEC,")
+    assert lines[4].startswith("  0.000000E+00  ") and len(lines[4].split()) == 5  # E14.6 x 5
+    back = records.read_at2(path)
+    assert back.n == gm.n and back.dt == gm.dt and back.name == gm.name
+    _assert_printed(back.ag, y)
+    for key in ("event", "date", "station", "component"):
+        assert back.metadata[key] == gm.metadata[key]
+
+    records.write_at2(path, gm, significant_digits=17)
+    back = records.read_at2(path)
+    np.testing.assert_allclose(back.ag, gm.ag, rtol=RTOL_17_DIGITS, atol=0)
+
+
+def test_write_refuses_vertical_and_bad_digits(tmp_path):
+    gm = rj.GroundMotion(ag=np.ones(4), dt=0.01, ag_v=np.zeros(4))
+    with pytest.raises(ValueError, match="vertical component"):
+        records.write_at2(tmp_path / "v.AT2", gm)
+    with pytest.raises(ValueError, match="significant_digits"):
+        records.write_at2(
+            tmp_path / "v.AT2", rj.GroundMotion(ag=np.ones(4), dt=0.01), significant_digits=0
+        )
+
+
+# ------------------------------------------------------------------ CSV
+def test_read_csv_two_columns_with_header(tmp_path):
+    t = 0.25 + 0.01 * np.arange(50)
+    a = np.sin(t)
+    text = "# exported record\ntime_s,acc_g\n" + "".join(
+        f"{ti:.2f},{ai:.17g}\r\n" for ti, ai in zip(t, a)
+    )
+    path = tmp_path / "rec.csv"
+    path.write_text(text)
+    gm = records.read_csv(path)
+    assert gm.n == 50 and math.isclose(gm.dt, 0.01, rel_tol=1e-12) and gm.name == "rec"
+    np.testing.assert_allclose(gm.ag, a * G, rtol=1e-15)
+    assert gm.metadata["header"] == "time_s,acc_g" and gm.metadata["t_start"] == "0.25"
+    gm = records.read_csv(path, units="m/s2", name="x")
+    np.testing.assert_allclose(gm.ag, a, rtol=1e-15)
+    assert gm.name == "x"
+
+
+def test_read_csv_one_column(tmp_path):
+    path = tmp_path / "a.txt"
+    path.write_text("acc\n1.0\n-2.0\n\n0.5\n")
+    gm = records.read_csv(path, units="cm/s2", time_column=False, dt=0.02)
+    np.testing.assert_allclose(gm.ag, [0.01, -0.02, 0.005], rtol=1e-15)
+    assert gm.dt == 0.02
+    path.write_text("1.0;2.0\n")
+    with pytest.raises(ValueError, match=r"a\.txt, line 1: 2 values, expected 1"):
+        records.read_csv(path, time_column=False, dt=0.02)
+    with pytest.raises(ValueError, match="needs its sampling step"):
+        records.read_csv(path, time_column=False)
+    with pytest.raises(ValueError, match="Pass dt only with time_column=False"):
+        records.read_csv(path, dt=0.01)
+
+
+def test_read_csv_errors_name_the_line(tmp_path):
+    path = tmp_path / "b.csv"
+    path.write_text("t,a\n0.0,1.0\n0.01,abc\n")
+    with pytest.raises(ValueError, match=r"b\.csv, line 3: 'abc' is not a number"):
+        records.read_csv(path)
+    path.write_text("0.0,1.0\n0.01,nan\n")
+    with pytest.raises(ValueError, match=r"line 2: non-finite sample 'nan'"):
+        records.read_csv(path)
+    path.write_text("0.0 1.0\n0.01 2.0\n0.03 0.0\n")
+    with pytest.raises(ValueError, match="not uniformly sampled"):
+        records.read_csv(path)
+    path.write_text("0.0|1.0\n0.01|2.0\n")
+    np.testing.assert_allclose(records.read_csv(path, delimiter="|", units="m/s2").ag, [1.0, 2.0])
+
+
+# ------------------------------------------------------------------ rotation
+# Rotation by an orthogonal matrix is exact; float64 products and sums cost a few ulp.
+RTOL_ROTATION = 1e-13
+
+
+def _pair():
+    t = np.arange(500) * 0.01
+    a = rj.GroundMotion(ag=np.sin(3.0 * t) * np.exp(-0.2 * t), dt=0.01, name="S1_070")
+    b = rj.GroundMotion(ag=0.7 * np.cos(5.0 * t + 0.3), dt=0.01, name="S1_160")
+    return a.with_metadata(event="Nahanni", component="070"), b.with_metadata(event="Nahanni")
+
+
+def test_rotate_to_own_azimuths_and_nahanni_example():
+    """REFERENCES §4.1: a(phi) = a_A cos(phi - theta_A) + a_B sin(phi - theta_A), theta_B = theta_A + 90."""
+    a, b = _pair()
+    np.testing.assert_array_equal(records.rotate(a, b, 70, 160, 70).ag, a.ag)
+    np.testing.assert_array_equal(records.rotate(a, b, 70, 160, 160).ag, b.ag)
+    r280 = records.rotate(a, b, 70, 160, 280)
+    # REFERENCES: "Nahanni 280: a = -0.8660 a_070 - 0.5 a_160"
+    np.testing.assert_allclose(
+        r280.ag, -math.sqrt(3) / 2 * a.ag - 0.5 * b.ag, rtol=RTOL_ROTATION, atol=1e-15
+    )
+    assert r280.metadata["azimuth_deg"] == "280" and r280.metadata["event"] == "Nahanni"
+    assert "component" not in r280.metadata  # not shared by both inputs
+    assert r280.name == "S1_070_rot280" and r280.dt == a.dt
+
+
+def test_rotate_preserves_energy_and_accepts_either_order():
+    """Rotation is orthogonal: a(phi)^2 + a(phi + 90)^2 = a_A^2 + a_B^2 at every sample."""
+    a, b = _pair()
+    for phi in (0.0, 37.0, 123.4, 280.0, -45.0):
+        p = np.asarray(records.rotate(a, b, 70, 160, phi).ag)
+        q = np.asarray(records.rotate(a, b, 70, 160, phi + 90.0).ag)
+        np.testing.assert_allclose(p**2 + q**2, a.ag**2 + b.ag**2, rtol=RTOL_ROTATION, atol=1e-15)
+        # b at theta_A - 90 (mod 360): the same projection with the components swapped
+        swapped = records.rotate(b, a, 160, 70 + 360, phi).ag
+        np.testing.assert_allclose(swapped, p, rtol=RTOL_ROTATION, atol=1e-15)
+
+
+def test_rotate_refuses_bad_pairs():
+    a, b = _pair()
+    with pytest.raises(ValueError, match="must be orthogonal.*100 deg apart"):
+        records.rotate(a, b, 70, 170, 0)
+    with pytest.raises(ValueError, match="share dt and length"):
+        records.rotate(a, rj.GroundMotion(ag=np.asarray(b.ag), dt=0.02), 70, 160, 0)
+    with pytest.raises(ValueError, match="share dt and length"):
+        records.rotate(a, rj.GroundMotion(ag=np.asarray(b.ag)[:-1], dt=0.01), 70, 160, 0)
+    with pytest.raises(ValueError, match="different vertical components"):
+        av = rj.GroundMotion(ag=a.ag, dt=a.dt, ag_v=np.zeros(a.n))
+        records.rotate(av, b, 70, 160, 0)
