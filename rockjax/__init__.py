@@ -41,6 +41,8 @@ from .block import Block as Block  # noqa: E402
 from .dem import simulate_dem as simulate_dem  # noqa: E402
 from .dem import stable_dt as stable_dt  # noqa: E402
 from .housner import simulate_housner as simulate_housner  # noqa: E402
+from .ida import collapse_intervals as collapse_intervals  # noqa: E402
+from .ida import ida as ida  # noqa: E402
 from .motion import GroundMotion as GroundMotion  # noqa: E402
 from .records import read_at2 as read_at2  # noqa: E402
 from .records import read_csv as read_csv  # noqa: E402
@@ -63,8 +65,10 @@ __all__ = [
     "beta_dejong",
     "beta_hcrit",
     "beta_isr",
+    "collapse_intervals",
     "e_housner",
     "e_isr",
+    "ida",
     "omega_crit",
     "omega_hcrit",
     "plot",

@@ -1,0 +1,391 @@
+"""Incremental dynamic analysis (IDA): one block under records x scale factors, batched.
+
+Every (record, scale) pair is one run of :func:`rockjax.simulate_dem` or
+:func:`rockjax.simulate_housner` with ``throw=False``. The pairs are flattened and run in
+chunks of ``chunk_size``: one ``jit(vmap(...))`` per chunk from a Python loop, which bounds the
+memory and lets a progress line print between chunks. The last chunk is padded (with
+zero-scale runs of the first record, dropped afterwards) to the same shape, so the batch
+compiles once.
+
+Records. They are zero-padded to a common length plus a free-vibration ``tail`` [s], so the
+block can finish its last excursion (or overturn) after the strongest record ends. Records of
+different ``dt`` are linearly interpolated onto the smallest one
+(:meth:`rockjax.GroundMotion.resampled`: no anti-alias filter is needed, as this only
+upsamples). Each run sees ``scale * ag`` (and ``scale * ag_v``, if any record has a vertical
+component; the others get zeros).
+
+Engineering demand parameters, per run:
+
+* ``max_d_over_b``: peak ``|d|/b`` of the top centre relative to the base. DEM: the running
+  maximum over every step, ``extras["d_max"] / b``. Housner: from the peak rotation with the
+  rigid-block formula ``|d| = b/2 (1 - cos theta_max) + h sin theta_max``, which is the same
+  as ``max|Response.d|`` over the run because ``|d|`` grows with ``|theta|`` on
+  ``[0, pi/2]``, but also includes the peaks between samples (``theta_max`` is refined
+  between step ends).
+* ``max_theta_over_eta``: ``theta_max / eta``.
+* ``collapse``: overturned (``|theta| > eta`` moving outward; the state is frozen from then
+  on, so the two EDPs above are then the values where the run stopped, just past ``eta``).
+* ``status``: 0 if the run is valid, else a code of ``rockjax.response.STATUS_MESSAGES``; a
+  failed run has NaN EDPs and ``collapse = False`` and does not stop the batch.
+* ``pga_scaled``: ``scale * pga`` [m/s^2], with ``pga`` the peak of the record as run.
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+import sys
+import time
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import xarray as xr
+from jaxtyping import ArrayLike, Float
+
+from ._checks import check_choice, check_nonnegative, check_positive
+from ._types import ScalarLike
+from .block import Block
+from .dem import simulate_dem, stable_dt
+from .housner import P_DT_TARGET, _default_e, simulate_housner
+from .motion import GroundMotion
+from .response import STATUS_OK
+
+MODELS = ("dem", "housner")
+MODES = ("two_sided", "one_sided")
+
+DEFAULT_SCALES = np.linspace(0.05, 2.0, 40)
+DEFAULT_SCALES.flags.writeable = False
+
+_BLOCK_FIELDS = ("b", "h", "length", "rho", "E", "nu")
+
+
+def ida(
+    block: Block,
+    records: Sequence[GroundMotion],
+    scales: Float[ArrayLike, " scale"] | Sequence[float] = DEFAULT_SCALES,
+    *,
+    model: str = "dem",
+    mode: str = "two_sided",
+    beta: ScalarLike | None = None,
+    e: ScalarLike | None = None,
+    gap: ScalarLike = 0.0,
+    tail: ScalarLike = 2.0,
+    chunk_size: int = 256,
+    progress: bool = True,
+) -> xr.Dataset:
+    """Incremental dynamic analysis of one block: every record at every scale factor.
+
+    Args:
+        block: The block (scalar geometry and material).
+        records: Ground motions, with distinct names. They may differ in length (zero-padded to
+            the longest, plus ``tail``) and in ``dt`` (resampled to the smallest).
+        scales: Scale factors [-] applied to each record, strictly increasing, finite, >= 0.
+        model: ``"dem"`` (:func:`rockjax.simulate_dem`) or ``"housner"``
+            (:func:`rockjax.simulate_housner`).
+        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
+        beta: DEM only, required: stiffness-proportional Rayleigh coefficient [s], Eq. (1). The
+            DEM step is the largest divisor of the record step not above
+            ``rj.stable_dt(block, beta, mode=mode)``, as in a single run.
+        e: Housner only: coefficient of restitution [-]; default as in
+            :func:`rockjax.simulate_housner` (``e_H``, Eq. (2), two-sided; ``|e_1sr|``, Eq. (5),
+            one-sided).
+        gap: DEM one-sided only: facade-to-return-wall gap [m].
+        tail: Free vibration appended after the longest record [s].
+        chunk_size: Runs per compiled batch; bounds the memory (about
+            ``chunk_size * n_time * 8`` bytes per saved series), not the results.
+        progress: Print one line per chunk to stderr.
+
+    Returns:
+        An ``xarray.Dataset`` with dims ``("record", "scale")`` and variables
+        ``max_d_over_b``, ``max_theta_over_eta``, ``collapse`` (bool), ``status`` (int) and
+        ``pga_scaled`` [m/s^2] (see the module docstring for their definitions). Coordinates:
+        ``record`` (names), ``scale``, and per record ``pga`` [m/s^2] (of the record as run),
+        ``dt`` [s] and ``duration`` [s] (as given), ``name``, and ``meta_<key>`` for every
+        metadata key of any record ("" where a record lacks it). ``attrs`` hold the run
+        parameters (model, mode, beta or e, the block, gap, tail, the common record step
+        ``dt_record``, the run length ``t_end``, the solver step ``dt_step``, the rockjax version
+        and the UTC creation time). ``ds.to_netcdf(path)`` writes it (via h5netcdf).
+
+    Raises:
+        ValueError: on invalid input, with the value, its unit and the fix.
+    """
+    check_choice("model", model, MODELS)
+    check_choice("mode", mode, MODES)
+    block = _scalar_block(block)
+    scales = _check_scales(scales)
+    if not (isinstance(chunk_size, int) and chunk_size >= 1):
+        raise ValueError(f"chunk_size must be an int >= 1; got chunk_size={chunk_size!r}. Use 256.")
+    check_nonnegative("tail", tail, "s", "tail is the free vibration after the records, e.g. 2.0.")
+    check_nonnegative("gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.")
+    if model == "dem":
+        if e is not None:
+            raise ValueError(
+                f"e (restitution) is a Housner parameter; model='dem' takes beta [s]. Got e={e}."
+            )
+        if beta is None:
+            raise ValueError(
+                "model='dem' needs beta, the stiffness-proportional damping coefficient in s, "
+                "e.g. beta=float(rj.beta_dejong(block)) or beta=2e-3."
+            )
+        check_nonnegative("beta", beta, "s")
+        beta = float(beta)  # a Python float: static under filter_jit, like the block
+        dt_bound = stable_dt(block, beta, mode=mode, gap=gap)
+        e_used = None
+    else:
+        if beta is not None:
+            raise ValueError(
+                f"beta (DEM damping) is not a Housner parameter; model='housner' takes e. "
+                f"Got beta={beta}."
+            )
+        if gap != 0.0:
+            raise ValueError(
+                f"the Housner model has no facade gap; got gap={gap} m. Use model='dem' or gap=0."
+            )
+        one_sided = mode == "one_sided"
+        e = None if e is None else float(e)
+        e_used = float(np.abs(_default_e(block.eta, one_sided))) if e is None else e
+        e_used = abs(e_used) if one_sided else e_used  # simulate_housner uses |e| one-sided
+        # the step bound simulate_housner picks for a concrete block
+        dt_bound = P_DT_TARGET / float(block.p)
+    gap, tail = float(gap), float(tail)
+    ag, ag_v, dt_rec, pga = _stack_records(records, tail)
+    n_rec, n_time = ag.shape
+    t_end = (n_time - 1) * dt_rec
+
+    n_runs = n_rec * scales.size
+    size = min(chunk_size, n_runs)
+    n_chunks = math.ceil(n_runs / size)
+    rec_idx = np.zeros(n_chunks * size, dtype=np.int32)
+    scale_flat = np.zeros(n_chunks * size)
+    rec_idx[:n_runs] = np.repeat(np.arange(n_rec, dtype=np.int32), scales.size)
+    scale_flat[:n_runs] = np.tile(scales, n_rec)
+    ag_j = jnp.asarray(ag)
+    ag_v_j = None if ag_v is None else jnp.asarray(ag_v)
+    config = dict(model=model, mode=mode, beta=beta, e=e, gap=float(gap), dt_rec=dt_rec)
+    # Both simulators split each record step into ceil(dt_rec / dt_bound) equal steps.
+    config["dt_bound"] = dt_bound
+    dt_step = dt_rec / max(1, math.ceil(dt_rec / dt_bound - 1e-9))
+
+    outs = []
+    start = time.perf_counter()
+    for k in range(n_chunks):
+        sl = slice(k * size, (k + 1) * size)
+        out = _run_chunk(block, ag_j, ag_v_j, rec_idx[sl], scale_flat[sl], **config)
+        outs.append(jax.device_get(out))
+        if progress:
+            done = min((k + 1) * size, n_runs)
+            print(
+                f"rockjax.ida: chunk {k + 1}/{n_chunks}, {done}/{n_runs} runs, "
+                f"{time.perf_counter() - start:.1f} s",
+                file=sys.stderr,
+                flush=True,
+            )
+    flat = {key: np.concatenate([o[key] for o in outs])[:n_runs] for key in outs[0]}
+    grid = {key: val.reshape(n_rec, scales.size) for key, val in flat.items()}
+    with np.errstate(over="ignore"):  # a huge scale may overflow to inf, as it does in the run
+        pga_scaled = pga[:, None] * scales[None, :]
+
+    dims = ("record", "scale")
+    data_vars = {
+        "max_d_over_b": (dims, grid["max_d_over_b"], _attrs("peak |d|/b, top centre", "1")),
+        "max_theta_over_eta": (dims, grid["max_theta_over_eta"], _attrs("theta_max/eta", "1")),
+        "collapse": (dims, grid["collapse"], {"long_name": "overturned"}),
+        "status": (dims, grid["status"], {"long_name": "0 ok, else STATUS_MESSAGES code"}),
+        "pga_scaled": (dims, pga_scaled, _attrs("scaled peak ground acceleration", "m/s^2")),
+    }
+    names = [r.name for r in records]
+    coords = {
+        "record": names,
+        "scale": ("scale", scales, {"units": "1"}),
+        "name": ("record", names),
+        "pga": ("record", pga, _attrs("peak ground acceleration of the record as run", "m/s^2")),
+        "dt": ("record", np.array([r.dt for r in records], float), _attrs("record step", "s")),
+        "duration": (
+            "record",
+            np.array([r.duration for r in records], float),
+            _attrs("record duration", "s"),
+        ),
+    }
+    keys = sorted({key for r in records for key, _ in r.meta})
+    for key in keys:
+        coords[f"meta_{key}"] = ("record", [r.metadata.get(key, "") for r in records])
+    from . import __version__  # at call time: the package sets it after importing this module
+
+    attrs = {
+        "model": model,
+        "mode": mode,
+        "b": float(block.b),
+        "h": float(block.h),
+        "length": float(block.length),
+        "rho": float(block.rho),
+        "E": float(block.E),
+        "nu": float(block.nu),
+        "gap": float(gap),
+        "tail": float(tail),
+        "dt_record": dt_rec,
+        "t_end": t_end,
+        "dt_step": dt_step,
+        "rockjax_version": __version__,
+        "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+    }
+    if model == "dem":
+        attrs["beta"] = beta
+    else:
+        attrs["e"] = e_used
+        attrs["e_source"] = "given" if e is not None else "default (Eq. 2 or Eq. 5)"
+    return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+
+
+class CollapseIntervals(NamedTuple):
+    """Result of :func:`collapse_intervals`.
+
+    Attributes:
+        intervals: Record name -> list of ``(lo, hi)`` scale factors: the lowest and highest
+            sampled scale of each contiguous run of collapsed scales, in increasing order.
+        lowest: Lowest collapsed scale factor per record [-] (NaN where none collapsed), an
+            ``xarray.DataArray`` over ``record``.
+    """
+
+    intervals: dict[str, list[tuple[float, float]]]
+    lowest: xr.DataArray
+
+
+def collapse_intervals(ds: xr.Dataset) -> CollapseIntervals:
+    """Contiguous intervals of collapsing scale factors per record, from an :func:`ida` Dataset.
+
+    IDA curves of rocking blocks are not monotonic: a record that overturns a block at one
+    scale may leave it standing at a larger one ("resurrection"), so there can be several
+    intervals. An interval ``(lo, hi)`` spans sampled scales: every sampled scale from ``lo`` to
+    ``hi`` collapsed, and the sampled scales next to it (if any) did not. Runs with a nonzero
+    ``status`` are left out (their neighbours decide), so a failed run neither splits nor
+    creates an interval.
+
+    Args:
+        ds: A Dataset with dims ``("record", "scale")`` and variables ``collapse`` and
+            ``status``, as :func:`ida` returns.
+
+    Returns:
+        A :class:`CollapseIntervals` ``(intervals, lowest)``.
+
+    Raises:
+        ValueError: if ``ds`` lacks the ``collapse`` or ``status`` variables.
+    """
+    for var in ("collapse", "status"):
+        if var not in ds:
+            raise ValueError(
+                f"ds has no {var!r} variable; pass the Dataset that rj.ida returns "
+                f"(it has {sorted(ds.data_vars)})."
+            )
+    ds = ds.sortby("scale")
+    scales = np.asarray(ds["scale"], float)
+    collapse = np.asarray(ds["collapse"].transpose("record", "scale"), bool)
+    ok = np.asarray(ds["status"].transpose("record", "scale")) == STATUS_OK
+    names = [str(r) for r in np.asarray(ds["record"])]
+    intervals: dict[str, list[tuple[float, float]]] = {}
+    lowest = np.full(len(names), np.nan)
+    for i, name in enumerate(names):
+        s, c = scales[ok[i]], collapse[i][ok[i]]
+        edges = np.diff(np.concatenate([[0], c.astype(np.int8), [0]]))
+        starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+        intervals[name] = [(float(s[a]), float(s[b])) for a, b in zip(starts, stops)]
+        if starts.size:
+            lowest[i] = s[starts[0]]
+    da = xr.DataArray(lowest, coords={"record": ds["record"]}, dims=("record",))
+    da.attrs["long_name"] = "lowest collapse scale factor"
+    return CollapseIntervals(intervals=intervals, lowest=da)
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def _attrs(long_name: str, units: str) -> dict:
+    return {"long_name": long_name, "units": units}
+
+
+def _scalar_block(block: Block) -> Block:
+    """The block with Python-float fields: static under ``filter_jit``, hence concrete in the
+    simulators (which then pick their steps as for a single run), and a compile-cache key."""
+    if not isinstance(block, Block):
+        raise ValueError(f"block must be a rockjax.Block; got {type(block)}.")
+    values = {}
+    for field in _BLOCK_FIELDS:
+        v = np.asarray(getattr(block, field), dtype=float)
+        if v.size != 1:
+            raise ValueError(
+                f"ida runs one block; got {field} with shape {v.shape}. Call rj.ida once per block."
+            )
+        values[field] = float(v.reshape(()))
+    return Block(**values)
+
+
+def _check_scales(scales) -> np.ndarray:
+    s = np.asarray(scales, dtype=float)
+    if s.ndim != 1 or s.size < 1:
+        raise ValueError(f"scales must be a 1-D array of scale factors; got shape {s.shape}.")
+    if not np.all(np.isfinite(s)) or np.any(s < 0):
+        raise ValueError(f"scales must be finite and >= 0 [-]; got scales={s}.")
+    if np.any(np.diff(s) <= 0):
+        raise ValueError(
+            f"scales must be strictly increasing; got scales={s}. Use np.unique(scales)."
+        )
+    return s
+
+
+def _stack_records(records, tail: float):
+    """Records on one step and length: ``(ag, ag_v or None, dt, pga)`` as NumPy arrays."""
+    if isinstance(records, GroundMotion) or not isinstance(records, Sequence) or not records:
+        raise ValueError(
+            "records must be a non-empty sequence of rockjax.GroundMotion, e.g. [gm1, gm2]; "
+            f"got {type(records)}."
+        )
+    for r in records:
+        if not isinstance(r, GroundMotion):
+            raise ValueError(f"records must hold rockjax.GroundMotion; got {type(r)}.")
+    names = [r.name for r in records]
+    if len(set(names)) != len(names):
+        dup = sorted({n for n in names if names.count(n) > 1})
+        raise ValueError(
+            f"record names must be distinct (they label the Dataset); {dup} repeat. Rename "
+            "with GroundMotion(ag=r.ag, dt=r.dt, name='...', ag_v=r.ag_v, meta=r.meta)."
+        )
+    dt = min(r.dt for r in records)
+    same = [math.isclose(r.dt, dt, rel_tol=1e-9) for r in records]
+    records = [r if ok else r.resampled(dt) for r, ok in zip(records, same)]
+    check_positive("dt", dt, "s")
+    n_time = max(r.n for r in records) + int(math.floor(tail / dt + 1e-9))
+    ag = np.zeros((len(records), n_time))
+    with_v = any(r.ag_v is not None for r in records)
+    ag_v = np.zeros_like(ag) if with_v else None
+    for i, r in enumerate(records):
+        ag[i, : r.n] = np.asarray(r.ag, dtype=float)
+        if with_v and r.ag_v is not None:
+            ag_v[i, : r.n] = np.asarray(r.ag_v, dtype=float)
+    return ag, ag_v, float(dt), np.max(np.abs(ag), axis=1)
+
+
+@eqx.filter_jit
+def _run_chunk(block, ag, ag_v, rec_idx, scale, *, model, mode, beta, e, gap, dt_rec, dt_bound):
+    """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (vmapped)."""
+
+    def one(i, s):
+        motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
+        if model == "dem":
+            r = simulate_dem(block, motion, beta=beta, mode=mode, gap=gap, dt=dt_bound, throw=False)
+            d_max = r.extras["d_max"]
+        else:
+            r = simulate_housner(block, motion, e=e, mode=mode, dt=dt_bound, throw=False)
+            th = r.theta_max
+            d_max = 0.5 * block.b * (1.0 - jnp.cos(th)) + block.h * jnp.sin(th)
+        ok = r.status == STATUS_OK
+        return {
+            "max_d_over_b": jnp.where(ok, d_max / block.b, jnp.nan),
+            "max_theta_over_eta": jnp.where(ok, r.theta_max / r.eta, jnp.nan),
+            "collapse": r.overturned & ok,
+            "status": r.status.astype(jnp.int32),
+        }
+
+    return jax.vmap(one)(rec_idx, scale)

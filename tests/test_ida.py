@@ -1,0 +1,205 @@
+"""Tests of rockjax.ida: batched IDA against single runs, chunking, per-run status,
+collapse intervals, the uplift threshold and the NetCDF round trip."""
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import rockjax as rj
+from rockjax.constants import G
+from rockjax.response import STATUS_NONFINITE, STATUS_OK
+
+BATCH_RTOL = 1e-12
+"""vmap vs a loop of single runs: the same float64 operations, up to XLA's fusion choices."""
+
+SMALL = dict(b=0.2, h=1.0)  # p ~ 3.8 rad/s, eta ~ 0.197 rad: short runs overturn quickly
+BETA = 2e-3  # [s]
+SCALES = np.array([0.3, 0.9, 1.5, 2.1])
+
+
+def _records():
+    """Two short pulses of different dt and length (so ida pads and resamples)."""
+    return [
+        rj.GroundMotion.sine_cycle(3.0, 0.5, dt=0.01, duration=1.5, name="sine"),
+        rj.GroundMotion.ricker(3.0, 0.4, dt=0.005, duration=1.2, name="ricker").with_metadata(
+            event="synthetic"
+        ),
+    ]
+
+
+@pytest.fixture(scope="module")
+def dem_ds():
+    block = rj.Block(**SMALL)
+    return rj.ida(
+        block, _records(), SCALES, model="dem", beta=BETA, tail=0.5, chunk_size=3, progress=False
+    )
+
+
+@pytest.fixture(scope="module")
+def housner_ds():
+    block = rj.Block(**SMALL)
+    return rj.ida(block, _records(), SCALES, model="housner", tail=0.5, progress=False)
+
+
+def _single(model, block, ds):
+    """Reference: a Python loop of single simulate_* runs on the records as ida prepares them."""
+    dt = float(ds.attrs["dt_record"])
+    t_end = float(ds.attrs["t_end"])
+    out = {k: np.zeros((2, SCALES.size)) for k in ("d", "th", "col", "st")}
+    for i, rec in enumerate(_records()):
+        rec = rec if rec.dt == dt else rec.resampled(dt)
+        for j, s in enumerate(SCALES):
+            if model == "dem":
+                r = rj.simulate_dem(
+                    block,
+                    rec.scaled(s),
+                    beta=BETA,
+                    dt=rj.stable_dt(block, BETA),
+                    duration=t_end,
+                    throw=False,
+                )
+                out["d"][i, j] = float(r.extras["d_max"]) / block.b
+            else:
+                r = rj.simulate_housner(block, rec.scaled(s), duration=t_end, throw=False)
+                th = float(r.theta_max)
+                out["d"][i, j] = (0.5 * block.b * (1 - np.cos(th)) + block.h * np.sin(th)) / block.b
+            out["th"][i, j] = float(r.theta_max / r.eta)
+            out["col"][i, j] = bool(r.overturned)
+            out["st"][i, j] = int(r.status)
+    return out
+
+
+@pytest.mark.parametrize("model", ["dem", "housner"])
+def test_batch_equals_loop_of_single_runs(model, dem_ds, housner_ds):
+    # Reference: the same simulator run once per (record, scale) in a Python loop.
+    ds = dem_ds if model == "dem" else housner_ds
+    ref = _single(model, rj.Block(**SMALL), ds)
+    assert ds["max_d_over_b"].dtype == np.float64
+    assert ds["max_theta_over_eta"].dims == ("record", "scale")
+    np.testing.assert_array_equal(ds["status"], ref["st"])
+    np.testing.assert_array_equal(ds["collapse"], ref["col"].astype(bool))
+    np.testing.assert_allclose(ds["max_theta_over_eta"], ref["th"], rtol=BATCH_RTOL, atol=0)
+    np.testing.assert_allclose(ds["max_d_over_b"], ref["d"], rtol=BATCH_RTOL, atol=0)
+    # the grid spans both outcomes, so the comparison covers rocking and overturning runs
+    assert ds["collapse"].any() and not ds["collapse"].all()
+
+
+def test_dataset_layout(dem_ds):
+    # Reference: the records' own dt, duration, pga and metadata.
+    recs = _records()
+    assert list(dem_ds["record"].values) == ["sine", "ricker"]
+    np.testing.assert_array_equal(dem_ds["scale"], SCALES)
+    np.testing.assert_array_equal(dem_ds["dt"], [0.01, 0.005])
+    np.testing.assert_array_equal(dem_ds["duration"], [r.duration for r in recs])
+    assert list(dem_ds["meta_event"].values) == ["", "synthetic"]
+    assert dem_ds.attrs["dt_record"] == 0.005
+    assert dem_ds.attrs["beta"] == BETA and dem_ds.attrs["model"] == "dem"
+    single = rj.simulate_dem(rj.Block(**SMALL), recs[1], beta=BETA)  # on the common dt
+    assert dem_ds.attrs["dt_step"] == pytest.approx(float(single.extras["dt"]), rel=1e-14)
+    # pga of the record as run: the sine resampled from 0.01 s onto 0.005 s keeps its samples
+    np.testing.assert_allclose(dem_ds["pga"], [float(r.pga) for r in recs], rtol=1e-15)
+    np.testing.assert_allclose(
+        dem_ds["pga_scaled"], dem_ds["pga"].values[:, None] * SCALES[None, :], rtol=1e-15
+    )
+
+
+def test_chunk_size_does_not_change_results(dem_ds):
+    # Reference: the same IDA in one chunk of 64 (dem_ds used chunks of 3, the last padded).
+    block = rj.Block(**SMALL)
+    one = rj.ida(
+        block, _records(), SCALES, model="dem", beta=BETA, tail=0.5, chunk_size=64, progress=False
+    )
+    for var in ("max_d_over_b", "max_theta_over_eta", "collapse", "status"):
+        np.testing.assert_array_equal(one[var], dem_ds[var])
+
+
+def test_failed_run_is_flagged_and_batch_kept(housner_ds, capsys):
+    # Reference: the batch without the failing scale. A scale of 1e308 overflows the record to
+    # inf inside the run (the scale itself is finite, so it passes the input checks).
+    scales = np.array([0.3, 0.9, 1e308])
+    ds = rj.ida(rj.Block(**SMALL), _records(), scales, model="housner", tail=0.5, chunk_size=4)
+    assert "chunk 2/2" in capsys.readouterr().err  # progress=True prints one line per chunk
+    np.testing.assert_array_equal(ds["status"][:, 2], [STATUS_NONFINITE] * 2)
+    assert np.all(np.isnan(ds["max_theta_over_eta"][:, 2]))
+    assert not ds["collapse"][:, 2].any()
+    np.testing.assert_array_equal(ds["status"][:, :2], STATUS_OK)
+    np.testing.assert_array_equal(
+        ds["max_theta_over_eta"][:, :2], housner_ds["max_theta_over_eta"][:, :2]
+    )
+
+
+def test_collapse_intervals_resurrection():
+    # Reference: intervals read off a hand-made collapse pattern, with a failed run inside one.
+    scales = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7])
+    collapse = np.array(
+        [
+            [0, 1, 1, 0, 0, 1, 1],  # collapse, resurrection, collapse again
+            [0, 0, 0, 0, 0, 0, 0],  # never
+            [0, 0, 1, 0, 1, 0, 0],  # single scales; the 0 at 0.4 is a failed run, dropped
+        ],
+        bool,
+    )
+    status = np.zeros(collapse.shape, np.int32)
+    status[2, 3] = STATUS_NONFINITE
+    ds = xr.Dataset(
+        {
+            "collapse": (("record", "scale"), collapse),
+            "status": (("record", "scale"), status),
+        },
+        coords={"record": ["a", "b", "c"], "scale": scales},
+    )
+    res = rj.collapse_intervals(ds.isel(scale=slice(None, None, -1)))  # order does not matter
+    assert res.intervals == {"a": [(0.2, 0.3), (0.6, 0.7)], "b": [], "c": [(0.3, 0.5)]}
+    np.testing.assert_array_equal(res.lowest.sel(record=["a", "c"]), [0.2, 0.3])
+    assert np.isnan(res.lowest.sel(record="b"))
+
+
+def test_sine_pulse_collapses_only_above_uplift():
+    # Reference: Housner's uplift criterion pga > g tan(eta): below it the block does not move
+    # (so cannot collapse); far above it a long one-sine pulse overturns it.
+    block = rj.Block(**SMALL)
+    uplift = G * float(np.tan(block.eta))
+    pulse = rj.GroundMotion.sine_cycle(uplift, 1.0, dt=0.01, duration=1.0, name="sine_T1")
+    scales = np.array([0.5, 0.9, 0.99, 1.5, 3.0, 5.0])
+    ds = rj.ida(block, [pulse], scales, model="housner", tail=1.5, progress=False)
+    below = ds["pga_scaled"] <= uplift
+    assert not ds["collapse"].where(below, False).any()
+    np.testing.assert_array_equal(ds["max_theta_over_eta"].where(below, 0.0), 0.0)
+    assert ds["collapse"].sel(scale=5.0).all()
+    res = rj.collapse_intervals(ds)
+    assert res.lowest.item() > 1.0
+
+
+def test_netcdf_round_trip(dem_ds, tmp_path):
+    # Reference: the Dataset itself, written and read back.
+    path = tmp_path / "ida.nc"
+    dem_ds.to_netcdf(path)
+    with xr.open_dataset(path) as back:
+        xr.testing.assert_identical(back.load(), dem_ds)
+        assert back["collapse"].dtype == bool
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(model="dem"), "needs beta"),
+        (dict(model="dem", beta=BETA, e=0.9), "Housner parameter"),
+        (dict(model="housner", beta=BETA), "not a Housner parameter"),
+        (dict(model="housner", gap=0.001), "no facade gap"),
+        (dict(model="housner", scales=[0.5, 0.2]), "strictly increasing"),
+        (dict(model="housner", scales=[0.5, np.nan]), "finite"),
+        (dict(model="housner", chunk_size=0), "chunk_size"),
+        (dict(model="fem"), "model must be one of"),
+    ],
+)
+def test_invalid_input(kwargs, match):
+    kwargs = {"scales": SCALES, **kwargs}
+    with pytest.raises(ValueError, match=match):
+        rj.ida(rj.Block(**SMALL), _records(), progress=False, **kwargs)
+
+
+def test_invalid_records():
+    block = rj.Block(**SMALL)
+    rec = _records()[0]
+    with pytest.raises(ValueError, match="distinct"):
+        rj.ida(block, [rec, rec], model="housner", progress=False)
