@@ -156,7 +156,7 @@ def bench_compile() -> list[dict]:
     rec = ricker(HISTORY_S)
     t1 = first_call(lambda: rj.stable_dt(block, beta))
     t2, _ = timed(lambda: rj.stable_dt(block, beta), 5)
-    rows = [{"entry": "rj.stable_dt(block, beta)  [eager ops]", "first": t1, "next": t2}]
+    rows = [{"entry": "rj.stable_dt(block, beta)", "first": t1, "next": t2}]
     t1 = first_call(lambda: rj.simulate_dem(block, rec, beta=beta).theta)
     t2, _ = timed(lambda: rj.simulate_dem(block, rec, beta=beta).theta, 3)
     rows.append(
@@ -367,7 +367,9 @@ def main() -> None:
         f"backend {jax.default_backend()}, devices {len(jax.devices())}"
     )
     print(f"  XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r}")
-    print(f"  load average at start: {os.getloadavg()[0]:.2f} (1 min)")
+    print(
+        f"  load average at start: {' '.join(f'{x:.2f}' for x in os.getloadavg())} (1, 5, 15 min)"
+    )
 
     print("\n1. Compile time (first call minus the next calls, fresh process)")
     for r in bench_compile():
@@ -443,7 +445,7 @@ def main() -> None:
         print_batched("5e. Pinned to one core (subprocess, sched_setaffinity)", rows)
 
     print(
-        f"\n  load average at end: {os.getloadavg()[0]:.2f} (1 min); total {time.perf_counter() - t_start:.0f} s"
+        f"\n  load average at end: {' '.join(f'{x:.2f}' for x in os.getloadavg())} (1, 5, 15 min); total {time.perf_counter() - t_start:.0f} s"
     )
 
 

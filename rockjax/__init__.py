@@ -11,7 +11,7 @@ import re
 # XLA:CPU compiles a while loop into a single kernel (no per-iteration dispatch) only when the
 # loop touches fewer bytes than `xla_cpu_small_while_loop_byte_threshold`. Our time-stepping
 # loops are a few hundred bytes per step but run tens of thousands of steps; above the default
-# threshold each step pays ~1 us of kernel dispatch, below it ~60 ns (docs/benchmarks.md).
+# threshold each DEM step pays ~0.5-1 us of kernel dispatch, below it ~35-60 ns (docs/benchmarks.md).
 # XLA reads XLA_FLAGS when its CPU backend starts, so this takes effect only if no JAX
 # computation ran before `import rockjax`. Set ROCKJAX_NO_XLA_TUNING=1 to leave XLA_FLAGS alone.
 _THRESHOLD = "xla_cpu_small_while_loop_byte_threshold=1000000"
