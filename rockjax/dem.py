@@ -431,14 +431,12 @@ def _run(
     carry0 = (_pack(state0), jnp.zeros((), bool), jnp.asarray(STATUS_OK))
     (z, overturned, status), out = jax.lax.scan(outer, carry0, (ag, ag_next, ag_v, agv_next))
     if throw:
-        msg = (
-            "rockjax.simulate_dem: the run failed: "
-            + STATUS_MESSAGES[STATUS_NONFINITE]
-            + "; or "
-            + STATUS_MESSAGES[STATUS_UNSTABLE]
-            + ". Pass throw=False to get a per-run status instead."
-        )
-        out["theta"] = eqx.error_if(out["theta"], status != STATUS_OK, msg)
+        for code in (STATUS_UNSTABLE, STATUS_NONFINITE):
+            msg = (
+                f"rockjax.simulate_dem: {STATUS_MESSAGES[code]}. "
+                "Pass throw=False to get a per-run status instead."
+            )
+            out["theta"] = eqx.error_if(out["theta"], status == code, msg)
     final = _unpack(z, n_base, n_wall)
     extras = {"x": out["x"], "y": out["y"], "d_max": final.d_max, "dt": dt}
     if "normal_forces" in out:

@@ -279,3 +279,17 @@ def test_vertical_ground_motion_scales_the_settlement(parapet):
     k_total = float(parapet.j_kn * parapet.b * parapet.length)
     assert np.isclose(sink0, float(parapet.m) * G / k_total, rtol=1e-9)
     assert np.isclose(sink1, 1.5 * sink0, rtol=1e-6)
+
+
+def test_nonfinite_state_fails_loudly_under_jit(parapet):
+    """A non-finite record inside jit (0 x inf): error_if raises, throw=False gives a status."""
+    base = rj.GroundMotion.sine_cycle(pga=1.0, period=0.5, duration=1.0)
+    dt = rj.stable_dt(parapet, 0.0)
+
+    def run(amp, throw):
+        gm = rj.GroundMotion(ag=amp * jnp.asarray(base.ag), dt=base.dt)
+        return rj.simulate_dem(parapet, gm, beta=0.0, dt=dt, throw=throw)
+
+    with pytest.raises(Exception, match="non-finite"):
+        jax.jit(lambda a: run(a, True).theta)(jnp.inf).block_until_ready()
+    assert int(jax.jit(lambda a: run(a, False).status)(jnp.inf)) == rj.response.STATUS_NONFINITE
