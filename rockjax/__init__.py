@@ -40,6 +40,8 @@ from . import relations as relations  # noqa: E402
 from .block import Block as Block  # noqa: E402
 from .dem import simulate_dem as simulate_dem  # noqa: E402
 from .dem import stable_dt as stable_dt  # noqa: E402
+from .fragility import Fragility as Fragility  # noqa: E402
+from .fragility import fragility as fragility  # noqa: E402
 from .housner import simulate_housner as simulate_housner  # noqa: E402
 from .ida import collapse_intervals as collapse_intervals  # noqa: E402
 from .ida import ida as ida  # noqa: E402
@@ -60,6 +62,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Block",
+    "Fragility",
     "GroundMotion",
     "Response",
     "beta_dejong",
@@ -68,6 +71,7 @@ __all__ = [
     "collapse_intervals",
     "e_housner",
     "e_isr",
+    "fragility",
     "ida",
     "omega_crit",
     "omega_hcrit",

@@ -5,6 +5,11 @@
 a Ricker pulse, and the DEM ``e(beta)`` sweep behind Eq. (3). It writes figures (PNG), time
 histories (CSV) and ``results.json`` into ``DIR`` and prints a summary.
 
+``rockjax ida --records nearfield|farfield|...|FILE.AT2... --out ida.nc`` runs an incremental
+dynamic analysis (:func:`rockjax.ida`) of one block under FEMA P695 record sets
+(:func:`rockjax.records.fema_p695`) or PEER ``.AT2`` files, writes the Dataset to NetCDF and
+prints a summary.
+
 Errors in the input are reported as one ``error: ...`` line on stderr with exit status 2.
 """
 
@@ -127,6 +132,7 @@ def _parser() -> argparse.ArgumentParser:
         help=f"points of the e(beta) sweep, >= 2 (default {N_BETA}, quick {N_BETA_QUICK})",
     )
     demo.set_defaults(run=_demo)
+    _add_ida_parser(sub)
     return parser
 
 
@@ -545,6 +551,210 @@ def _jsonable(x):
     if isinstance(x, float | np.floating):
         return float(x) if math.isfinite(x) else None
     return x
+
+
+# ----------------------------------------------------------------------------- ida
+
+
+def _add_ida_parser(sub) -> None:
+    from .records import FEMA_P695_SETS
+
+    p = sub.add_parser(
+        "ida",
+        help="incremental dynamic analysis of one block under record sets; writes NetCDF",
+        description=(
+            "Run one block under every record at every scale factor (rockjax.ida) and write the "
+            "(record x scale) Dataset to NetCDF. Records: the FEMA P695 sets (both horizontal "
+            "components of each record; needs `pip install rockjax[records]`) and/or PEER "
+            ".AT2 files (or folders of them)."
+        ),
+        allow_abbrev=False,
+    )
+    p.add_argument("--b", type=float, default=PARAPET_B, metavar="M", help="block thickness [m]")
+    p.add_argument("--h", type=float, default=PARAPET_H, metavar="M", help="block height [m]")
+    p.add_argument(
+        "--records",
+        nargs="+",
+        required=True,
+        metavar="SET|PATH",
+        help=f"record sets ({', '.join(FEMA_P695_SETS)}), .AT2 files or folders of .AT2 files",
+    )
+    p.add_argument(
+        "--normalized",
+        action="store_true",
+        help="FEMA P695 sets: use the normalized records (recorded x normalization factor)",
+    )
+    p.add_argument("--model", choices=("dem", "housner"), default="dem", help="(default: dem)")
+    p.add_argument(
+        "--mode",
+        choices=("two_sided", "one_sided"),
+        default="two_sided",
+        help="two_sided: parapet; one_sided: facade (default: two_sided)",
+    )
+    p.add_argument(
+        "--beta",
+        type=float,
+        default=None,
+        metavar="S",
+        help="DEM stiffness-proportional damping [s] (default: rj.beta_dejong(block))",
+    )
+    p.add_argument(
+        "--e",
+        type=float,
+        default=None,
+        metavar="E",
+        help="Housner restitution coefficient (default: e_H two-sided, |e_1SR| one-sided)",
+    )
+    p.add_argument(
+        "--scales",
+        default="0.05:2.0:40",
+        metavar="START:STOP:N|S1,S2,...",
+        help="scale factors: N evenly spaced from START to STOP, or a list (default 0.05:2.0:40)",
+    )
+    p.add_argument("--gap", type=float, default=0.0, metavar="M", help="DEM one-sided gap [m]")
+    p.add_argument(
+        "--tail", type=float, default=2.0, metavar="S", help="free vibration after records [s]"
+    )
+    p.add_argument(
+        "--chunk-size", type=int, default=256, metavar="N", help="runs per compiled batch"
+    )
+    p.add_argument("--out", required=True, metavar="FILE.nc", help="NetCDF file to write")
+    p.set_defaults(run=_ida)
+
+
+def _parse_scales(text: str) -> np.ndarray:
+    example = "e.g. --scales 0.05:2.0:40 (40 values from 0.05 to 2.0) or --scales 0.5,1,1.5"
+    try:
+        if ":" in text:
+            start, stop, num = text.split(":")
+            n = int(num)
+            if n < 1:
+                raise ValueError
+            scales = np.linspace(float(start), float(stop), n)
+        else:
+            scales = np.array([float(v) for v in text.split(",") if v.strip()])
+    except ValueError:
+        raise ValueError(f"--scales {text!r} cannot be read; {example}.") from None
+    if scales.size == 0:
+        raise ValueError(f"--scales {text!r} gives no scale factors; {example}.")
+    return scales
+
+
+def _load_records(specs: Sequence[str], normalized: bool) -> list[GroundMotion]:
+    from .records import FEMA_P695_SETS, fema_p695, read_at2
+
+    motions: list[GroundMotion] = []
+    for spec in specs:
+        if spec in FEMA_P695_SETS:
+            motions += fema_p695(spec, normalized=normalized)
+            continue
+        path = Path(spec)
+        if path.is_dir():
+            files = sorted(f for f in path.iterdir() if f.suffix.upper() == ".AT2")
+            if not files:
+                raise ValueError(f"--records {spec}: the folder holds no .AT2 files.")
+            motions += [read_at2(f) for f in files]
+        elif path.is_file():
+            motions.append(read_at2(path))
+        else:
+            raise ValueError(
+                f"--records {spec}: no such file or folder, and not a record set "
+                f"({', '.join(FEMA_P695_SETS)})."
+            )
+    return motions
+
+
+def _ida(args: argparse.Namespace) -> int:
+    from .ida import collapse_intervals, ida
+
+    t_start = time.perf_counter()
+    if args.chunk_size < 1:
+        raise ValueError(f"--chunk-size must be an integer >= 1; got {args.chunk_size}.")
+    out = Path(args.out)
+    if out.is_dir():
+        raise ValueError(f"--out {out} is a folder; give a file path such as {out / 'ida.nc'}.")
+    scales = _parse_scales(args.scales)
+    block = Block(b=args.b, h=args.h)  # raises ValueError on bad geometry
+    # checked here too (rj.ida checks them all) so the error comes before the records load
+    if args.model == "housner" and args.beta is not None:
+        raise ValueError(
+            f"--beta (DEM damping) is not a Housner parameter; --model housner takes --e. "
+            f"Got --beta {args.beta:g}."
+        )
+    if args.model == "dem" and args.e is not None:
+        raise ValueError(
+            f"--e (restitution) is a Housner parameter; --model dem takes --beta [s]. "
+            f"Got --e {args.e:g}."
+        )
+    beta = args.beta
+    if args.model == "dem" and beta is None:
+        beta = float(beta_dejong(block))
+    motions = _load_records(args.records, args.normalized)
+    n_runs = len(motions) * scales.size
+    param = (
+        f"beta = {beta:.4g} s"
+        if args.model == "dem"
+        else "e = " + ("default" if args.e is None else f"{args.e:g}")
+    )
+    print(
+        f"rockjax {__version__} ida: block {args.b:g} x {args.h:g} m, {args.model} "
+        f"{args.mode} ({param}); {len(motions)} records x {scales.size} scales "
+        f"({scales[0]:g} to {scales[-1]:g}) = {n_runs} runs -> {out}",
+        flush=True,
+    )
+    ds = ida(
+        block,
+        motions,
+        scales,
+        model=args.model,
+        mode=args.mode,
+        beta=beta,
+        e=args.e,
+        gap=args.gap,
+        tail=args.tail,
+        chunk_size=args.chunk_size,
+        progress=True,
+    )
+    ds.attrs["command"] = "rockjax ida " + " ".join(_ida_argv(args))
+    if out.parent != Path(""):
+        out.parent.mkdir(parents=True, exist_ok=True)
+    ds.to_netcdf(out, engine="h5netcdf")
+
+    collapse = np.asarray(ds["collapse"], bool)
+    failed = int(np.sum(np.asarray(ds["status"]) != 0))
+    lowest = np.asarray(collapse_intervals(ds).lowest, float)
+    n_col = int(np.sum(np.isfinite(lowest)))
+    print(
+        f"runs: {n_runs}, collapsed: {int(collapse.sum())}, failed (status != 0): {failed}",
+        flush=True,
+    )
+    if n_col:
+        # records that never collapsed count as above the largest scale in the median
+        median = float(np.median(np.where(np.isfinite(lowest), lowest, np.inf)))
+        median_txt = f"{median:.4g}" if math.isfinite(median) else f"> {scales[-1]:g}"
+        print(
+            f"lowest collapse scale per record: min {np.nanmin(lowest):.4g}, median "
+            f"{median_txt} ({n_col}/{lowest.size} records collapsed at some scale)",
+            flush=True,
+        )
+    else:
+        print(f"no record collapsed the block up to scale {scales[-1]:g}", flush=True)
+    print(f"wrote {out} in {time.perf_counter() - t_start:.1f} s", flush=True)
+    if failed:
+        print(f"warning: {failed} runs failed; see the 'status' variable", file=sys.stderr)
+    return 0
+
+
+def _ida_argv(args: argparse.Namespace) -> list[str]:
+    parts = ["--b", f"{args.b:g}", "--h", f"{args.h:g}", "--records", *args.records]
+    parts += ["--model", args.model, "--mode", args.mode, "--scales", args.scales]
+    for flag, value in (("--beta", args.beta), ("--e", args.e)):
+        if value is not None:
+            parts += [flag, f"{value:g}"]
+    if args.normalized:
+        parts.append("--normalized")
+    parts += ["--gap", f"{args.gap:g}", "--tail", f"{args.tail:g}"]
+    return parts + ["--chunk-size", str(args.chunk_size), "--out", str(args.out)]
 
 
 if __name__ == "__main__":

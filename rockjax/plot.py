@@ -269,3 +269,213 @@ def ground_motion(motion: GroundMotion, ax=None, *, in_g: bool = True, title: st
     if title:
         ax.set_title(title)
     return ax
+
+
+# ----------------------------------------------------------------------------- IDA and fragility
+
+_IM_LABELS = {"pga_scaled": "PGA", "scale": "scale factor"}
+_EDP_LABELS = {
+    "max_d_over_b": r"peak top displacement $|d|/b$",
+    "max_theta_over_eta": r"$\theta_{max}/\eta$",
+}
+
+
+def _im_axis(name: str, units_attr: str, units: str) -> tuple[float, str]:
+    """Divisor and axis label of an IM: accelerations in m/s^2 are shown in ``units``."""
+    if units not in ("g", "m/s^2"):
+        raise ValueError(f"units must be 'g' or 'm/s^2'; got units={units!r}.")
+    label = _IM_LABELS.get(name, name)
+    if units_attr == "m/s^2":
+        return (G, f"{label} [g]") if units == "g" else (1.0, f"{label} [m/s$^2$]")
+    return 1.0, f"{label} [{units_attr if units_attr not in ('', '1') else '-'}]"
+
+
+def _check_vars(ds, names) -> None:
+    for var in names:
+        if var not in ds.variables:
+            raise ValueError(
+                f"ds has no {var!r} variable; pass the Dataset that rockjax.ida returns "
+                f"(it has {sorted(map(str, ds.variables))})."
+            )
+
+
+def ida(ds, ax=None, *, edp: str = "max_d_over_b", im: str = "pga_scaled", units: str = "g"):
+    """IDA curves: one line per record, the demand on x and the intensity on y (paper Fig. 10).
+
+    Only valid runs (``status == 0``) are drawn; collapsed runs are marked with a cross (their
+    demand is where the run stopped, just past overturning).
+
+    Args:
+        ds: A Dataset from :func:`rockjax.ida`.
+        ax: A matplotlib ``Axes`` to draw on; default a new figure.
+        edp: Demand variable of ``ds``, e.g. ``"max_d_over_b"`` or ``"max_theta_over_eta"``.
+        im: Intensity variable or coordinate of ``ds``, e.g. ``"pga_scaled"`` [m/s^2] or
+            ``"scale"``.
+        units: ``"g"`` or ``"m/s^2"``: the unit of an acceleration IM on the axis.
+
+    Returns:
+        The matplotlib ``Axes``.
+
+    Raises:
+        ValueError: If ``ds`` lacks a variable or ``units`` is unknown.
+    """
+    _check_vars(ds, ("collapse", "status", edp, im))
+    div, ylabel = _im_axis(im, str(ds[im].attrs.get("units", "")), units)
+    ax = _new_axes(ax)
+    dims = ("record", "scale")
+    x_all = np.asarray(ds[edp].transpose(*dims), dtype=float)
+    y_all = np.asarray(ds[im].broadcast_like(ds["collapse"]).transpose(*dims), dtype=float) / div
+    col_all = np.asarray(ds["collapse"].transpose(*dims), dtype=bool)
+    ok_all = np.asarray(ds["status"].transpose(*dims)) == 0
+    names = [str(r) for r in np.asarray(ds["record"])]
+    show_legend = len(names) <= 10
+    marked = False
+    for i, name in enumerate(names):
+        ok = ok_all[i]
+        order = np.argsort(y_all[i][ok])
+        x, y, c = x_all[i][ok][order], y_all[i][ok][order], col_all[i][ok][order]
+        (line,) = ax.plot(x, y, "o-", ms=3, lw=1.0, label=name if show_legend else None)
+        if c.any():
+            ax.plot(
+                x[c],
+                y[c],
+                "x",
+                color=line.get_color(),
+                ms=7,
+                mew=1.5,
+            )
+            marked = True
+    if marked:  # one neutral legend entry for the crosses of every record
+        ax.plot([], [], "x", color="0.2", ms=7, mew=1.5, label="collapse")
+    edp_label = _EDP_LABELS.get(edp, edp)
+    edp_units = str(ds[edp].attrs.get("units", ""))
+    ax.set_xlabel(f"{edp_label} [{edp_units if edp_units not in ('', '1') else '-'}]")
+    ax.set_ylabel(ylabel)
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(bottom=0.0)
+    ax.grid(True, alpha=0.3)
+    if show_legend or marked:
+        ax.legend(loc="best", fontsize="small")
+    return ax
+
+
+def fragility(frag, ax=None, *, ds=None, units: str = "g"):
+    """A fitted collapse fragility: the lognormal CDF, its bootstrap band, and the data.
+
+    Args:
+        frag: A :class:`rockjax.fragility.Fragility` from :func:`rockjax.fragility`.
+        ax: A matplotlib ``Axes`` to draw on; default a new figure.
+        ds: The IDA Dataset the fit came from; when given, the fraction of valid runs that
+            collapsed at each scale factor is drawn at the geometric mean IM of that scale.
+        units: ``"g"`` or ``"m/s^2"``: the unit of an acceleration IM on the axis.
+
+    Returns:
+        The matplotlib ``Axes``.
+
+    Raises:
+        ValueError: If ``ds`` lacks a variable or ``units`` is unknown.
+    """
+    div, xlabel = _im_axis(frag.im, frag.im_units, units)
+    ax = _new_axes(ax)
+    emp = None
+    if ds is not None:
+        _check_vars(ds, ("collapse", "status", frag.im))
+        dims = ("record", "scale")
+        x_im = np.asarray(ds[frag.im].broadcast_like(ds["collapse"]).transpose(*dims), float)
+        ok = (np.asarray(ds["status"].transpose(*dims)) == 0) & (x_im > 0)
+        col = np.asarray(ds["collapse"].transpose(*dims), dtype=bool) & ok
+        n_ok = ok.sum(axis=0)
+        keep = n_ok > 0
+        log_im = np.where(ok, np.log(np.where(ok, x_im, 1.0)), 0.0)
+        gm = np.exp(log_im.sum(axis=0)[keep] / n_ok[keep])
+        emp = gm, col.sum(axis=0)[keep] / n_ok[keep]
+    hi_im = 3.0 * frag.median
+    if emp is not None and emp[0].size:
+        hi_im = max(hi_im, float(emp[0].max()))
+    im = np.linspace(0.0, hi_im, 301)[1:]
+    lo, hi = frag.prob_band(im)
+    if np.all(np.isfinite(lo)):
+        ax.fill_between(
+            im / div,
+            lo,
+            hi,
+            color="C0",
+            alpha=0.25,
+            lw=0,
+            label=f"{100 * frag.ci:.0f}% bootstrap band",
+        )
+    label = (
+        rf"lognormal ({frag.method}): $\theta$ = {frag.median / div:.3g}"
+        rf"{' g' if div == G else ''}, $\sigma$ = {frag.beta_log:.3g}"
+    )
+    ax.plot(im / div, frag.prob(im), color="C0", lw=1.8, label=label)
+    if emp is not None:
+        ax.plot(emp[0] / div, emp[1], "ks", ms=4, label="collapsed fraction per scale")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("probability of collapse [-]")
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize="small")
+    return ax
+
+
+def pairs(ds_facade, ds_parapet, ax=None, *, edp: str = "max_d_over_b"):
+    """Facade against parapet demand for the same record and scale, with the 1:1 line (Fig. 11).
+
+    The two Datasets are matched on ``record`` and ``scale`` (their intersection); a pair is
+    drawn when both runs are valid, with a distinct marker when either block collapsed.
+
+    Args:
+        ds_facade: IDA Dataset of the facade (``mode="one_sided"``).
+        ds_parapet: IDA Dataset of the parapet (``mode="two_sided"``).
+        ax: A matplotlib ``Axes`` to draw on; default a new figure.
+        edp: Demand variable to compare, e.g. ``"max_d_over_b"``.
+
+    Returns:
+        The matplotlib ``Axes``.
+
+    Raises:
+        ValueError: If a Dataset lacks a variable or the two share no (record, scale) pair.
+    """
+    import xarray as xr
+
+    for ds in (ds_facade, ds_parapet):
+        _check_vars(ds, ("collapse", "status", edp))
+    f, p = xr.align(ds_facade, ds_parapet, join="inner")
+    if f.sizes.get("record", 0) == 0 or f.sizes.get("scale", 0) == 0:
+        raise ValueError(
+            "ds_facade and ds_parapet share no (record, scale) pair; run rockjax.ida on the same "
+            "records and scale factors for both blocks."
+        )
+    dims = ("record", "scale")
+    ok = (np.asarray(f["status"].transpose(*dims)) == 0) & (
+        np.asarray(p["status"].transpose(*dims)) == 0
+    )
+    x = np.asarray(f[edp].transpose(*dims), float)[ok]
+    y = np.asarray(p[edp].transpose(*dims), float)[ok]
+    cf = np.asarray(f["collapse"].transpose(*dims), bool)[ok]
+    cp = np.asarray(p["collapse"].transpose(*dims), bool)[ok]
+    ax = _new_axes(ax, figsize=(5.0, 5.0))
+    groups = [
+        (~cf & ~cp, "o", "C0", "both standing"),
+        (cf & ~cp, "^", "C1", "facade collapsed"),
+        (~cf & cp, "v", "C2", "parapet collapsed"),
+        (cf & cp, "x", "C3", "both collapsed"),
+    ]
+    for mask, marker, color, label in groups:
+        if mask.any():
+            ax.plot(x[mask], y[mask], marker, color=color, ms=4, ls="none", label=label)
+    top = float(np.nanmax(np.concatenate([x, y, [1e-3]])))
+    ax.plot([0.0, 1.05 * top], [0.0, 1.05 * top], "k--", lw=1.0, label="1:1")
+    edp_label = _EDP_LABELS.get(edp, edp)
+    edp_units = str(f[edp].attrs.get("units", ""))
+    unit = edp_units if edp_units not in ("", "1") else "-"
+    ax.set_xlabel(f"facade {edp_label} [{unit}]")
+    ax.set_ylabel(f"parapet {edp_label} [{unit}]")
+    ax.set_xlim(0.0, 1.05 * top)
+    ax.set_ylim(0.0, 1.05 * top)
+    ax.set_aspect("equal")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize="small")
+    return ax

@@ -127,3 +127,96 @@ def test_import_rockjax_does_not_import_matplotlib():
     code = "import sys, rockjax, rockjax.plot, rockjax.cli; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+# ----------------------------------------------------------------------------- IDA and fragility
+
+
+def _ida_dataset(pga=(2.0, 3.0, 4.0), shift=0.0):
+    """A hand-made IDA Dataset (3 records x 6 scales) with the variables rockjax.ida returns."""
+    import xarray as xr
+
+    scales = np.linspace(0.25, 1.5, 6)
+    pga = np.asarray(pga)
+    im = pga[:, None] * scales[None, :]
+    d = 0.1 * (im / 3.0) ** 2 + shift
+    collapse = im > np.array([3.5, 2.5, 4.5])[:, None]
+    collapse[1, -1] = False  # a "resurrection"
+    status = np.zeros(im.shape, np.int32)
+    status[2, 0] = 1  # a failed run: not drawn
+    dims = ("record", "scale")
+    return xr.Dataset(
+        {
+            "max_d_over_b": (dims, np.where(status == 0, d, np.nan), {"units": "1"}),
+            "max_theta_over_eta": (dims, 2.0 * d, {"units": "1"}),
+            "collapse": (dims, collapse),
+            "status": (dims, status),
+            "pga_scaled": (dims, im, {"units": "m/s^2"}),
+        },
+        coords={"record": ["A", "B", "C"], "scale": ("scale", scales, {"units": "1"})},
+    )
+
+
+def test_ida_curves_per_record_with_collapse_marks(tmp_path):
+    ds = _ida_dataset()
+    ax = plot.ida(ds)
+    assert ax.get_xlabel().endswith("[-]") and "|d|/b" in ax.get_xlabel()
+    assert ax.get_ylabel() == "PGA [g]"
+    texts = _legend_texts(ax)
+    assert {"A", "B", "C", "collapse"} <= set(texts)
+    curves = [line for line in ax.get_lines() if line.get_linestyle() == "-"]
+    assert len(curves) == 3
+    np.testing.assert_allclose(curves[0].get_ydata(), np.asarray(ds.pga_scaled[0]) / G)
+    assert len(curves[2].get_xdata()) == 5  # the failed run is left out
+    path = tmp_path / "ida.png"
+    ax.figure.savefig(path)
+    assert path.stat().st_size > 1000
+
+
+def test_ida_other_edp_and_units():
+    ax = plot.ida(_ida_dataset(), edp="max_theta_over_eta", units="m/s^2")
+    assert "theta" in ax.get_xlabel() and ax.get_ylabel() == "PGA [m/s$^2$]"
+    ax = plot.ida(_ida_dataset(), im="scale")
+    assert ax.get_ylabel() == "scale factor [-]"
+    with pytest.raises(ValueError, match="units must be"):
+        plot.ida(_ida_dataset(), units="cm/s^2")
+    with pytest.raises(ValueError, match="no 'sa' variable"):
+        plot.ida(_ida_dataset(), im="sa")
+
+
+def test_fragility_curve_band_and_empirical_fractions(tmp_path):
+    from rockjax.fragility import fragility
+
+    ds = _ida_dataset()
+    frag = fragility(ds, n_boot=50)
+    ax = plot.fragility(frag, ds=ds)
+    assert ax.get_xlabel() == "PGA [g]" and ax.get_ylabel() == "probability of collapse [-]"
+    texts = _legend_texts(ax)
+    assert any("bootstrap band" in t for t in texts)
+    assert "collapsed fraction per scale" in texts
+    emp = ax.get_lines()[-1].get_ydata()
+    assert emp.shape == (6,) and np.all((emp >= 0) & (emp <= 1))
+    curve = ax.get_lines()[0]
+    assert np.all(np.diff(curve.get_ydata()) >= 0)
+    path = tmp_path / "fragility.png"
+    ax.figure.savefig(path)
+    assert path.stat().st_size > 1000
+    ax = plot.fragility(frag, units="m/s^2")
+    assert ax.get_xlabel() == "PGA [m/s$^2$]"
+
+
+def test_pairs_facade_against_parapet(tmp_path):
+    facade = _ida_dataset()
+    parapet = _ida_dataset(shift=0.02).isel(scale=slice(0, 5))  # matched on the intersection
+    ax = plot.pairs(facade, parapet)
+    assert ax.get_xlabel().startswith("facade") and ax.get_xlabel().endswith("[-]")
+    assert ax.get_ylabel().startswith("parapet") and ax.get_ylabel().endswith("[-]")
+    texts = _legend_texts(ax)
+    assert "1:1" in texts and "both standing" in texts
+    diag = ax.get_lines()[-1]
+    np.testing.assert_allclose(diag.get_xdata(), diag.get_ydata())
+    n_points = sum(len(line.get_xdata()) for line in ax.get_lines()[:-1])
+    assert n_points == 3 * 5 - 1  # 5 shared scales, one failed run
+    ax.figure.savefig(tmp_path / "pairs.png")
+    with pytest.raises(ValueError, match="share no"):
+        plot.pairs(facade, parapet.assign_coords(record=["X", "Y", "Z"]))
