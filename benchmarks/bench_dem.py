@@ -20,7 +20,6 @@ import json
 import os
 import platform
 import re
-import statistics
 import subprocess
 import sys
 import time
@@ -40,6 +39,7 @@ except ImportError:  # run from a checkout without installing
 
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
+from _timing import timed  # noqa: E402
 
 RECORD_DT = 0.01  # [s] record sampling step
 HISTORY_S = 20.0  # [s] one history
@@ -61,17 +61,6 @@ def block_and_beta(name: str):
     b, h = BLOCKS[name]
     block = rj.Block(b=b, h=h)
     return block, float(rj.beta_dejong(block))
-
-
-def timed(fn, repeats: int):
-    """(median, min) wall time [s] of ``fn()`` over ``repeats`` calls after one warm-up call."""
-    jax.block_until_ready(fn())
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        ts.append(time.perf_counter() - t0)
-    return statistics.median(ts), min(ts)
 
 
 def first_call(fn):

@@ -41,7 +41,6 @@ import datetime
 import math
 import os
 import platform
-import statistics
 import sys
 import time
 
@@ -56,6 +55,7 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import optimistix as optx  # noqa: E402
+from _timing import timed  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 from rockjax.constants import G  # noqa: E402
@@ -71,18 +71,6 @@ HOUSNER_BATCH = 256
 DEM_BLOCK = (0.25, 3.0)  # b, h [m] (bench_dem.py)
 DEM_BATCH = 1024
 DEM_BATCH_RECORD_S = 2.0  # [s] record of the batched DEM case (bench_dem.py section 3)
-
-
-def timed(fn, repeats: int, warmup: bool = True):
-    """(median, min) wall time [s] of ``fn()`` over ``repeats`` calls (after one warm-up)."""
-    if warmup:
-        jax.block_until_ready(fn())
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        ts.append(time.perf_counter() - t0)
-    return statistics.median(ts), min(ts)
 
 
 # ============================================================================ Housner: scipy
