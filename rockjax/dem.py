@@ -508,7 +508,7 @@ def simulate_dem(
         block, beta, mode=mode, gap=gap, n_sub=n_sub, phi_deg=phi_deg, dashpot=dashpot
     )
     _check_theta0(theta0, block, mode)
-    ag, ag_v, dt_out, name = _prepare_motion(motion, duration, save_dt)
+    ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
     limit = _concrete_limit(params, block, beta_max, n_sub, mode, dashpot, dt)
     if dt is None:
         dt_target = DT_SAFETY * limit
@@ -594,4 +594,4 @@ def _prepare_motion(motion, duration, save_dt):
         pad = max(0, n - ag.shape[0])
         ag = xp.pad(ag, (0, pad))[:n]
         ag_v = xp.pad(ag_v, (0, pad))[:n]
-    return ag, ag_v, dt_out, motion.name
+    return ag, ag_v, dt_out
