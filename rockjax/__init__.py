@@ -34,10 +34,15 @@ import jax  # noqa: E402
 # penetrations are ~1e-6 of the block size and energies are compared to 1e-6 relative).
 jax.config.update("jax_enable_x64", True)
 
+from . import calibration as calibration  # noqa: E402
+from . import metrics as metrics  # noqa: E402
 from . import plot as plot  # noqa: E402  (matplotlib is imported lazily inside)
 from . import records as records  # noqa: E402
 from . import relations as relations  # noqa: E402
 from .block import Block as Block  # noqa: E402
+from .calibration import Calibration as Calibration  # noqa: E402
+from .calibration import fit_beta as fit_beta  # noqa: E402
+from .calibration import fit_e as fit_e  # noqa: E402
 from .dem import simulate_dem as simulate_dem  # noqa: E402
 from .dem import stable_dt as stable_dt  # noqa: E402
 from .fragility import Fragility as Fragility  # noqa: E402
@@ -62,17 +67,22 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Block",
+    "Calibration",
     "Fragility",
     "GroundMotion",
     "Response",
     "beta_dejong",
     "beta_hcrit",
     "beta_isr",
+    "calibration",
     "collapse_intervals",
     "e_housner",
     "e_isr",
+    "fit_beta",
+    "fit_e",
     "fragility",
     "ida",
+    "metrics",
     "omega_crit",
     "omega_hcrit",
     "plot",

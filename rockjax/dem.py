@@ -33,7 +33,7 @@ import numpy as np
 from ._checks import check_choice, check_nonnegative, concrete
 from .block import Block
 from .constants import G
-from .contact import DASHPOTS, normal_force, shear_force
+from .contact import DASHPOTS, ONSETS, normal_force, shear_force
 from .motion import GroundMotion
 from .response import STATUS_MESSAGES, STATUS_NONFINITE, STATUS_OK, STATUS_UNSTABLE, Response
 
@@ -69,6 +69,7 @@ class DemParams(eqx.Module):
     kn_wall: jax.Array
     ks_wall: jax.Array
     dashpot: str = eqx.field(static=True)
+    onset: str = eqx.field(static=True, default="sub_step")
 
 
 class DemState(eqx.Module):
@@ -129,10 +130,12 @@ def dem_params(
     n_sub: int = 2,
     phi_deg=None,
     dashpot: str = "closed",
+    onset: str = "sub_step",
 ) -> DemParams:
     """Collect the block, interface and damping into a :class:`DemParams` (traceable)."""
     check_choice("mode", mode, MODES)
     check_choice("dashpot", dashpot, DASHPOTS)
+    check_choice("onset", onset, ONSETS)
     if not isinstance(n_sub, int) or n_sub < 2:
         raise ValueError(
             f"n_sub (sub-contacts per face) must be an integer >= 2; got n_sub={n_sub}."
@@ -144,12 +147,16 @@ def dem_params(
     phi = concrete(phi_deg)
     if phi is not None and not (0.0 < phi < 90.0):
         raise ValueError(f"phi_deg (friction angle, degrees) must be in (0, 90); got {phi_deg}.")
-    return _build_params(block, beta, gap, phi_deg, mode=mode, n_sub=n_sub, dashpot=dashpot)
+    return _build_params(
+        block, beta, gap, phi_deg, mode=mode, n_sub=n_sub, dashpot=dashpot, onset=onset
+    )
 
 
 # Compiled: one call instead of ~40 eager ops (~1.5 ms a call; docs/benchmarks.md).
-@jax.jit(static_argnames=("mode", "n_sub", "dashpot"))
-def _build_params(block: Block, beta, gap, phi_deg, *, mode: str, n_sub: int, dashpot: str):
+@jax.jit(static_argnames=("mode", "n_sub", "dashpot", "onset"))
+def _build_params(
+    block: Block, beta, gap, phi_deg, *, mode: str, n_sub: int, dashpot: str, onset: str
+):
     b, h = jnp.asarray(block.b, float), jnp.asarray(block.h, float)
     s = jnp.linspace(-0.5, 0.5, n_sub)
     area_base = _trapezoid_areas(n_sub, b, block.length)
@@ -178,6 +185,7 @@ def _build_params(block: Block, beta, gap, phi_deg, *, mode: str, n_sub: int, da
         kn_wall=block.j_kn * area_wall,
         ks_wall=block.j_ks * area_wall,
         dashpot=dashpot,
+        onset=onset,
     )
 
 
@@ -258,12 +266,15 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s):
     """Resultant contact force and clockwise moment on the block, and the new shear springs."""
     fx = fy = mom = 0.0
     fn_base, fs_base = [], []
+    dt_onset = dt if params.onset == "sub_step" else None
     for i in range(len(state.fs_base)):
         u, v = params.u_base[i], params.v_base[i]
         rx, ry, _, y_pt, xd_pt, yd_pt = _point_kinematics(state, u, v, c, s)
-        fn, fn_el = normal_force(-y_pt, -yd_pt, params.kn_base[i], params.beta, params.dashpot)
+        fn, fn_el, frac = normal_force(
+            -y_pt, -yd_pt, params.kn_base[i], params.beta, params.dashpot, dt_onset
+        )
         ft, fs = shear_force(
-            state.fs_base[i], xd_pt, dt, params.ks_base[i], fn_el, params.tan_phi, params.beta
+            state.fs_base[i], xd_pt, dt, params.ks_base[i], fn_el, params.tan_phi, params.beta, frac
         )
         fx, fy, mom = fx + ft, fy + fn, mom + (ry * ft - rx * fn)
         fn_base.append(fn)
@@ -273,11 +284,11 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s):
     for j in range(len(state.fs_wall)):
         u, v = params.u_wall[j], params.v_wall[j]
         rx, ry, x_pt, _, xd_pt, yd_pt = _point_kinematics(state, u, v, c, s)
-        fn, fn_el = normal_force(
-            wall_x - x_pt, -xd_pt, params.kn_wall[j], params.beta, params.dashpot
+        fn, fn_el, frac = normal_force(
+            wall_x - x_pt, -xd_pt, params.kn_wall[j], params.beta, params.dashpot, dt_onset
         )
         ft, fs = shear_force(
-            state.fs_wall[j], yd_pt, dt, params.ks_wall[j], fn_el, params.tan_phi, params.beta
+            state.fs_wall[j], yd_pt, dt, params.ks_wall[j], fn_el, params.tan_phi, params.beta, frac
         )
         fx, fy, mom = fx + fn, fy + ft, mom + (ry * fn - rx * ft)
         fs_wall.append(fs)
@@ -469,6 +480,7 @@ def simulate_dem(
     n_sub: int = 2,
     phi_deg=None,
     dashpot: str = "closed",
+    onset: str = "sub_step",
     save_dt: float | None = None,
     save: tuple[str, ...] = (),
     beta_max=None,
@@ -490,6 +502,8 @@ def simulate_dem(
         n_sub: Sub-contact points per face (>= 2; 2 puts them at the corners).
         phi_deg: Friction angle [deg]; default 50 (parapets) or 30 (facades), as in the paper.
         dashpot: ``"closed"`` (default) or ``"clipped"``; see :mod:`rockjax.contact`.
+        onset: ``"sub_step"`` (default: contact onsets located inside the step, so responses
+            are smooth in ``beta``) or ``"step"`` (UDEC-style); see :mod:`rockjax.contact`.
         save_dt: Output interval for free rocking [s] (default 0.002); with a record, its ``dt``.
         save: Extra outputs: ``"energy"`` (total energy [J]), ``"forces"`` (base normal forces [N]).
         beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
@@ -505,7 +519,14 @@ def simulate_dem(
     for key in save:
         check_choice("save entry", key, SAVE_OPTIONS)
     params = dem_params(
-        block, beta, mode=mode, gap=gap, n_sub=n_sub, phi_deg=phi_deg, dashpot=dashpot
+        block,
+        beta,
+        mode=mode,
+        gap=gap,
+        n_sub=n_sub,
+        phi_deg=phi_deg,
+        dashpot=dashpot,
+        onset=onset,
     )
     _check_theta0(theta0, block, mode)
     ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
@@ -555,9 +576,14 @@ def _check_theta0(theta0, block, mode):
 def _concrete_limit(params, block, beta_max, n_sub, mode, dashpot, dt):
     """The stability limit [s] as a float, or None when it cannot be known outside the trace."""
     if beta_max is not None:
-        return float(
-            critical_dt(eqx.tree_at(lambda p: p.beta, params, jnp.asarray(beta_max, float)))
-        )
+        try:  # rebuilt from the block: params may be tracers when only beta is traced
+            with jax.ensure_compile_time_eval():
+                return float(critical_dt(dem_params(block, beta_max, mode=mode, n_sub=n_sub)))
+        except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
+            raise ValueError(
+                "beta_max cannot size the time step when the block itself is traced; pass "
+                "dt=rj.stable_dt(block, beta_max) computed outside the transform."
+            ) from None
     try:
         return float(critical_dt(params))
     except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):

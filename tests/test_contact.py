@@ -7,11 +7,11 @@ from rockjax.contact import normal_force, shear_force
 def test_normal_force_conventions():
     k, beta = 1e8, 0.01
     # separating corner still penetrated: the 'closed' dashpot pulls, the 'clipped' one cannot
-    f, f_el = normal_force(jnp.array(1e-6), jnp.array(-1.0), k, beta, "closed")
+    f, f_el, _ = normal_force(jnp.array(1e-6), jnp.array(-1.0), k, beta, "closed")
     assert np.isclose(f_el, 100.0) and np.isclose(f, 100.0 - 1e6)
-    f, _ = normal_force(jnp.array(1e-6), jnp.array(-1.0), k, beta, "clipped")
+    f, _, _ = normal_force(jnp.array(1e-6), jnp.array(-1.0), k, beta, "clipped")
     assert f == 0.0
-    f, f_el = normal_force(jnp.array(-1e-6), jnp.array(-1.0), k, beta, "closed")
+    f, f_el, _ = normal_force(jnp.array(-1e-6), jnp.array(-1.0), k, beta, "closed")
     assert f == 0.0 and f_el == 0.0  # open contacts carry nothing
 
 

@@ -1,0 +1,862 @@
+"""Calibrate the DEM damping ``beta`` to a coefficient of restitution, by gradient descent.
+
+The paper matched DEM and Housner free-rocking histories by trial; here the match is a
+differentiable loss minimised with L-BFGS (``optax.lbfgs``, zoom line search):
+
+1. **Reference**: Housner's free rocking with the target ``e`` (or, for facades, the measured
+   bounce ratios of ``e_ISR``), released from rest at ``theta0`` (one or several amplitudes).
+2. **Loss** (:func:`rockjax.metrics.peak_loss`): the mean square gap of the bounce
+   log-energies ``log U_k - log U_0`` between the DEM and Housner, bounce by bounce, over the
+   first ``n_bounces`` impacts that keep at least 2 % of the release energy (weights 1, else 0).
+   It is insensitive to phase, and equals ``(log e_DEM - log e)^2`` for a DEM with a constant
+   restitution. The paper's pointwise weighted-mean history error
+   (:func:`rockjax.metrics.history_error`) is reported beside it.
+3. **Smoothness**: the DEM locates contact onsets inside the step (``onset="sub_step"``,
+   :mod:`rockjax.contact`), so the loss is continuous in ``beta``; with onsets on the step grid
+   it jumps ~1e-4 at ~1e-5 ``beta_DeJong`` intervals and the local derivative misses the trend.
+4. **Scaling and bounds**: two DEM runs at ``beta = 0`` and ``beta_max`` (vmapped) give the
+   reachable range (a target outside it raises) and the slope used to scale the variable
+   ``u = S beta`` so that the loss is ``~ (u - u*)^2``; ``beta = beta_cap tanh(|u| / (S beta_cap))``
+   keeps it in ``[0, beta_cap]`` (``beta_cap = 1.25 beta_max``, the step is sized for it).
+5. **Derivatives** in forward mode (``jax.jvp`` through the ``lax.scan``; one tangent per
+   parameter), wrapped as a ``custom_vjp`` for optax.
+
+Baselines (``method=``): ``"grid"`` (dense vmapped grid, parabola through the best three
+points) and ``"root"`` (Illinois false position on the signed log-energy gap, monotone in
+``beta``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from . import metrics
+from ._checks import check_choice
+from .block import Block
+from .dem import simulate_dem, stable_dt
+from .housner import simulate_housner
+from .relations import beta_dejong, e_isr, free_rocking_period
+from .response import STATUS_OK, Response, e_exp
+
+MODES = ("two_sided", "one_sided")
+METHODS = ("lbfgs", "grid", "root")
+BOUNCE_FRACTIONS = (0.68, 0.80, 1.00)
+"""Facade targets (``target="bounces"``): ``e_exp`` (Eq. 6) of bounces 1-3 as fractions of
+``|e_ISR|``, the middles of the measured 64-72 %, 74-86 % and ~100 % (the paper, Sect. 2.2,
+from Sorrentino et al.'s tests)."""
+
+MIN_ENERGY_RATIO = 0.02
+SAVE_DT = 0.002
+"""Output step of the calibration runs [s] (the peaks are refined between samples)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Calibration:
+    """Result of :func:`fit_beta` (or :func:`fit_e`, where ``e`` is the fitted value).
+
+    Attributes:
+        beta: Fitted (or given) ``beta`` [s].
+        e: Target (``fit_beta``) or fitted (``fit_e``) Housner restitution [-]; None for
+            ``target="bounces"``.
+        e_effective: The DEM's own restitution at ``beta``: ``sqrt`` of its mean energy ratio
+            per impact over the compared bounces (least squares on ``log U_k``), from peaks
+            found in NumPy on the saved history [-].
+        e_exp: Eq. (6) of the DEM's bounces 1-3 [-] (first release amplitude).
+        loss: Final loss [-] (``peak_loss``: ``~ (log e_DEM - log e)^2``).
+        history_error: The paper's weighted-mean history error of the DEM against Housner,
+            up to the last compared bounce [-] (None for ``target="bounces"``).
+        history: Per iteration: ``"beta"`` [s] and ``"loss"`` [-] (NumPy arrays).
+        n_simulations: DEM (or Housner, for ``fit_e``) runs spent, per release amplitude.
+        n_iterations: Optimiser iterations.
+        converged: Whether the stopping rule was met before ``max_iter``.
+        e_range: Reachable ``(e at beta_max, e at beta = 0)`` [-] (``fit_beta``).
+        beta_max: Upper end of the searched range [s].
+        method: ``"lbfgs"``, ``"grid"`` or ``"root"``.
+        seconds: Wall time of the fit [s] (including compilation on a first call).
+        dem: DEM response at the result (first release amplitude).
+        housner: Housner reference (first release amplitude), or None.
+    """
+
+    beta: float
+    e: float | None
+    e_effective: float
+    e_exp: np.ndarray
+    loss: float
+    history_error: float | None
+    history: dict
+    n_simulations: int
+    n_iterations: int
+    converged: bool
+    e_range: tuple | None
+    beta_max: float
+    method: str
+    seconds: float
+    dem: Response
+    housner: Response | None
+
+    @property
+    def e_target(self):
+        """Alias of ``e``."""
+        return self.e
+
+
+# --------------------------------------------------------------------------- the problem
+
+
+class _Problem(eqx.Module):
+    """Everything a loss evaluation needs; arrays traced, the rest static (one compile per
+    geometry/duration)."""
+
+    block: Block
+    theta0: jax.Array  # (n_release,)
+    ref: metrics.Peaks  # Housner reference peaks, leading axis n_release (or dummies)
+    targets: jax.Array  # bounce targets (target="bounces") or e (target="e")
+    gap: jax.Array
+    scale: jax.Array  # S: d(log e)/d(beta) magnitude [1/s], for u = S beta
+    beta_cap: jax.Array
+    mode: str = eqx.field(static=True)
+    kind: str = eqx.field(static=True)  # "e" or "bounces"
+    n_bounces: int = eqx.field(static=True)
+    duration: float = eqx.field(static=True)
+    dt: float = eqx.field(static=True)
+    dashpot: str = eqx.field(static=True)
+    onset: str = eqx.field(static=True)
+    hysteresis: float = eqx.field(static=True)
+
+
+def _dem(problem: _Problem, beta, theta0, save_energy=False) -> Response:
+    return simulate_dem(
+        problem.block,
+        beta=beta,
+        mode=problem.mode,
+        gap=problem.gap,
+        theta0=theta0,
+        duration=problem.duration,
+        dt=problem.dt,
+        dashpot=problem.dashpot,
+        onset=problem.onset,
+        save_dt=SAVE_DT,
+        throw=False,
+    )
+
+
+def _dem_peaks(problem: _Problem, beta):
+    def one(theta0):
+        r = _dem(problem, beta, theta0)
+        pk = metrics.peaks(
+            r.t, r.theta, problem.block.eta, problem.n_bounces, problem.mode, problem.hysteresis
+        )
+        return pk, r.status
+
+    return jax.vmap(one)(problem.theta0)
+
+
+def _bounce_log_e(problem: _Problem, pk: metrics.Peaks):
+    n = jnp.arange(1, 4)
+    e_n = e_exp(pk.amplitude[:, 1:4], pk.amplitude[:, :1], problem.block.eta, n)
+    return jnp.log(e_n)
+
+
+def _stats(problem: _Problem, beta):
+    """(loss, signed gap) at ``beta``; NaN when a run failed (status != OK)."""
+    pk, status = _dem_peaks(problem, beta)
+    if problem.kind == "e":
+        loss = jax.vmap(metrics.peak_loss)(pk, problem.ref)
+        gap = jax.vmap(metrics.log_e_gap)(pk, problem.ref)
+    else:
+        d = _bounce_log_e(problem, pk) - jnp.log(problem.targets)[None, :]
+        loss = jnp.mean(d * d, axis=-1)
+        gap = jnp.mean(d, axis=-1)
+    bad = jnp.any(status != STATUS_OK)
+    return jnp.where(bad, jnp.nan, jnp.mean(loss)), jnp.where(bad, jnp.nan, jnp.mean(gap))
+
+
+@eqx.filter_jit
+def _stats_batch(problem: _Problem, betas):
+    return jax.vmap(lambda b: _stats(problem, b))(betas)
+
+
+def _beta_of_u(problem: _Problem, u):
+    return problem.beta_cap * jnp.tanh(jnp.abs(u) / (problem.scale * problem.beta_cap))
+
+
+@eqx.filter_custom_vjp
+def _loss_u(u, problem: _Problem):
+    return _stats(problem, _beta_of_u(problem, u))[0]
+
+
+@_loss_u.def_fwd
+def _loss_u_fwd(perturbed, u, problem):
+    # forward mode: one tangent, no reverse pass through the long scan
+    val, dval = jax.jvp(
+        lambda v: _stats(problem, _beta_of_u(problem, v))[0], (u,), (jnp.ones_like(u),)
+    )
+    return val, dval
+
+
+@_loss_u.def_bwd
+def _loss_u_bwd(dval, g, perturbed, u, problem):
+    return g * dval
+
+
+_OPT = optax.lbfgs(memory_size=5)
+
+
+@eqx.filter_jit
+def _lbfgs_step(problem: _Problem, u, state):
+    def fn(v):
+        return _loss_u(v, problem)
+
+    value, grad = optax.value_and_grad_from_state(fn)(u, state=state)
+    updates, state = _OPT.update(grad, state, u, value=value, grad=grad, value_fn=fn)
+    n_ls = optax.tree_utils.tree_get(state, "num_linesearch_steps")
+    return optax.apply_updates(u, updates), state, value, n_ls
+
+
+# --------------------------------------------------------------------------- set-up
+
+
+def _release(block: Block, theta0):
+    eta = float(block.eta)
+    th = np.atleast_1d(np.asarray(0.5 * eta if theta0 is None else theta0, float))
+    if th.ndim != 1 or th.size == 0 or not np.all(np.isfinite(th)):
+        raise ValueError(
+            f"theta0 must be a release rotation [rad] or a 1-D list of them; got {theta0}."
+        )
+    if np.any(np.abs(th) >= eta) or np.any(np.abs(th) < 0.05 * eta):
+        raise ValueError(
+            f"theta0={th} rad: each release must satisfy 0.05 eta <= |theta0| < eta "
+            f"(eta = {eta:.4g} rad); e.g. theta0=0.5*block.eta."
+        )
+    return np.abs(th)
+
+
+def _concrete_block(block: Block) -> Block:
+    try:
+        return jax.tree.map(lambda x: float(np.asarray(x)), block)
+    except Exception:
+        raise ValueError(
+            "fit_beta/fit_e need a concrete Block (Python floats), not traced values."
+        ) from None
+
+
+def _duration(block: Block, theta0: np.ndarray, n_bounces: int) -> float:
+    """Long enough for impact n_bounces + 1 at the largest release (rounded up to 0.5 s so
+    similar blocks share a compilation)."""
+    t_full = float(free_rocking_period(block.p, block.eta, float(np.max(theta0))))
+    return math.ceil(2.0 * (n_bounces + 2) * 0.5 * t_full) / 2.0
+
+
+def _hysteresis(mode):
+    return metrics.HYSTERESIS if mode == "two_sided" else 0.1 * metrics.HYSTERESIS
+
+
+def _housner_peaks(block, e, theta0, mode, n_bounces, duration):
+    pks, resps = [], []
+    for th in theta0:
+        r = simulate_housner(block, e=e, mode=mode, theta0=th, duration=duration, dt=SAVE_DT)
+        pks.append(metrics.peaks(r.t, r.theta, block.eta, n_bounces, mode, _hysteresis(mode)))
+        resps.append(r)
+    return jax.tree.map(lambda *x: jnp.stack(x), *pks), resps
+
+
+def _make_problem(
+    block, *, e, target, mode, theta0, n_bounces, beta_max, dashpot, gap, onset
+) -> tuple[_Problem, list]:
+    check_choice("mode", mode, MODES)
+    check_choice("target", target, ("e", "bounces"))
+    block = _concrete_block(block)
+    th = _release(block, theta0)
+    one_sided = mode == "one_sided"
+    if n_bounces is None:
+        n_bounces = 3 if (one_sided or target == "bounces") else 8
+    if target == "bounces":
+        if not one_sided:
+            raise ValueError(
+                "target='bounces' is the facade calibration (measured e_exp of bounces 1-3 as "
+                "fractions of e_ISR); use mode='one_sided', or target='e' for a parapet."
+            )
+        if e is not None:
+            raise ValueError("target='bounces' takes no e (its targets are fractions of e_ISR).")
+        n_bounces = max(n_bounces, 3)
+    elif e is None:
+        raise ValueError(
+            "fit_beta needs the target restitution e (e.g. e=rj.e_housner(block), Eq. 2), or "
+            "target='bounces' for a facade."
+        )
+    if beta_max is None:
+        beta_max = 2.0 * float(beta_dejong(block))
+    if not (np.isfinite(beta_max) and beta_max > 0):
+        raise ValueError(f"beta_max must be a positive damping coefficient in s; got {beta_max}.")
+    beta_cap = 1.25 * float(beta_max)
+    duration = _duration(block, th, n_bounces)
+    dt = stable_dt(block, beta_cap, mode=mode)
+    resps = []
+    if target == "e":
+        e_val = float(np.asarray(e))
+        hi = 1.0
+        if not (0.0 < abs(e_val) <= hi):
+            raise ValueError(f"e (restitution, dimensionless) must be in (0, 1]; got e={e_val}.")
+        ref, resps = _housner_peaks(block, e_val, th, mode, n_bounces, duration)
+        targets = jnp.asarray([abs(e_val)])
+    else:
+        ref = metrics.Peaks(
+            t=jnp.zeros((th.size, n_bounces + 1)),
+            amplitude=jnp.zeros((th.size, n_bounces + 1)),
+            log_energy=jnp.zeros((th.size, n_bounces + 1)),
+            valid=jnp.zeros((th.size, n_bounces + 1), bool),
+            n_impacts=jnp.zeros(th.size, jnp.int32),
+        )
+        targets = jnp.asarray(BOUNCE_FRACTIONS) * abs(float(e_isr(block)))
+    problem = _Problem(
+        block=block,
+        theta0=jnp.asarray(th),
+        ref=ref,
+        targets=targets,
+        dt=float(dt),
+        gap=jnp.asarray(float(gap)),
+        scale=jnp.asarray(1.0),
+        beta_cap=jnp.asarray(beta_cap),
+        mode=mode,
+        kind=target,
+        n_bounces=int(n_bounces),
+        duration=duration,
+        dashpot=dashpot,
+        onset=onset,
+        hysteresis=_hysteresis(mode),
+    )
+    return problem, resps
+
+
+def _range_message(problem, g0, g1, beta_max):
+    if problem.kind == "e":
+        e = float(problem.targets[0])
+        lo, hi = e * math.exp(g1), e * math.exp(g0)
+        return (
+            f"target e={e:.4g} is not reachable by this DEM block: over beta in "
+            f"[0, {beta_max:.4g}] s its restitution spans e = {lo:.4f} (beta_max) to {hi:.4f} "
+            f"(beta = 0; dashpot={problem.dashpot!r}). Pick e in that range, or widen beta_max "
+            "(a 'clipped' dashpot saturates: use dashpot='closed' for lower e)."
+        )
+    return (
+        f"the facade bounce targets {np.round(np.asarray(problem.targets), 4).tolist()} are not "
+        f"bracketed over beta in [0, {beta_max:.4g}] s (mean log-gap {g0:+.3g} at beta = 0, "
+        f"{g1:+.3g} at beta_max); widen beta_max."
+    )
+
+
+def _check_reachable(problem, g0, g1, beta_max):
+    if not (np.isfinite(g0) and np.isfinite(g1)):
+        raise ValueError(
+            "a DEM calibration run failed (non-finite or unstable); check the block and beta_max."
+        )
+    if not (g0 >= 0.0 >= g1):
+        raise ValueError(_range_message(problem, g0, g1, beta_max))
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def fit_beta(
+    block: Block,
+    e=None,
+    *,
+    target: str = "e",
+    mode: str = "two_sided",
+    theta0=None,
+    n_bounces: int | None = None,
+    beta0: float | None = None,
+    beta_max: float | None = None,
+    method: str = "lbfgs",
+    n_seed: int = 9,
+    n_grid: int = 256,
+    rtol: float = 1e-4,
+    max_iter: int = 40,
+    dashpot: str = "closed",
+    gap: float = 0.0,
+    onset: str = "sub_step",
+) -> Calibration:
+    """Fit the DEM's ``beta`` [s] so that its free rocking matches Housner's with restitution ``e``.
+
+    Args:
+        block: The block (concrete floats).
+        e: Target restitution [-] (two-sided ``e``; one-sided ``|e|``), e.g. ``rj.e_housner``
+            (Eq. 2) or a measured value.
+        target: ``"e"`` (match Housner with ``e``) or ``"bounces"`` (facades: match ``e_exp``
+            of bounces 1-3 to :data:`BOUNCE_FRACTIONS` of ``|e_ISR|``, Eq. 5-6).
+        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
+        theta0: Release rotation(s) [rad] (default ``0.5 eta``); several are averaged.
+        n_bounces: Impacts compared (default 8 two-sided, 3 one-sided).
+        beta0: Starting ``beta`` [s]; default: seeded by a vmapped scan of ``n_seed`` values.
+        beta_max: Upper end of the search [s] (default ``2 beta_DeJong``).
+        method: ``"lbfgs"`` (gradient, default), ``"grid"`` (``n_grid`` points) or ``"root"``.
+        rtol: Stop when an iteration moves ``beta`` by less than ``rtol`` relative.
+        max_iter: Iteration cap (L-BFGS or root find).
+        dashpot, gap, onset: DEM options (see :func:`rockjax.simulate_dem`).
+
+    Returns:
+        A :class:`Calibration` (``.beta``, ``.e_effective``, ``.loss``, ``.history``,
+        ``.n_simulations``, ...).
+
+    Raises:
+        ValueError: bad input, or a target outside the reachable range (the message gives it).
+    """
+    check_choice("method", method, METHODS)
+    t_start = time.perf_counter()
+    problem, h_resps = _make_problem(
+        block,
+        e=e,
+        target=target,
+        mode=mode,
+        theta0=theta0,
+        n_bounces=n_bounces,
+        beta_max=beta_max,
+        dashpot=dashpot,
+        gap=gap,
+        onset=onset,
+    )
+    bmax = float(problem.beta_cap) / 1.25
+    # reachability, slope scale, and (no beta0) a seed: one vmapped batch of DEM runs
+    if method == "lbfgs" and beta0 is None:
+        scan = np.linspace(0.0, bmax, max(2, n_seed))
+    else:
+        scan = np.array([0.0, bmax])
+    loss_s, gap_s = map(np.asarray, _stats_batch(problem, jnp.asarray(scan)))
+    n_sims = scan.size
+    _check_reachable(problem, float(gap_s[0]), float(gap_s[-1]), bmax)
+    slope = max((gap_s[0] - gap_s[-1]) / bmax, 1e-12)
+    problem = eqx.tree_at(lambda p: p.scale, problem, jnp.asarray(slope))
+    hist_b, hist_l = list(scan), list(loss_s)
+
+    converged = True
+    n_iter = 0
+    if method == "grid":
+        beta, n_add, grid, gl = _grid(problem, bmax, n_grid)
+        n_sims += n_add
+        hist_b, hist_l = list(grid), list(gl)
+    elif method == "root":
+        beta, n_add, hb, hl, converged, n_iter = _illinois(problem, scan, gap_s, rtol, max_iter)
+        n_sims += n_add
+        hist_b += hb
+        hist_l += hl
+    else:
+        if beta0 is None:
+            beta0 = _interp_root(scan, gap_s)
+        elif not (np.isfinite(beta0) and 0.0 <= beta0 <= float(problem.beta_cap)):
+            raise ValueError(
+                f"beta0 must lie in [0, {float(problem.beta_cap):.4g}] s; got {beta0}."
+            )
+        u0 = max(float(beta0), 1e-4 * bmax) * slope
+        u = jnp.asarray(u0)
+        state = _OPT.init(u)
+        converged = False
+        beta_prev = float(beta0)
+        for n_iter in range(1, max_iter + 1):
+            u, state, value, n_ls = _lbfgs_step(problem, u, state)
+            beta = float(_beta_of_u(problem, u))
+            n_sims += int(n_ls) + (1 if n_iter == 1 else 0)
+            hist_b.append(beta)
+            hist_l.append(float(value))
+            if abs(beta - beta_prev) <= rtol * max(beta, 1e-6 * bmax):
+                converged = True
+                break
+            beta_prev = beta
+        beta = float(_beta_of_u(problem, u))
+    return _finish(
+        problem,
+        beta,
+        h_resps,
+        hist_b,
+        hist_l,
+        n_sims,
+        n_iter,
+        converged,
+        bmax,
+        method,
+        t_start,
+        gap_s,
+    )
+
+
+def _interp_root(scan, gap_s):
+    """Linear interpolation of the first sign change of the gap along the scan [s]."""
+    for i in range(scan.size - 1):
+        a, b = gap_s[i], gap_s[i + 1]
+        if np.isfinite(a) and np.isfinite(b) and a >= 0.0 >= b:
+            return (
+                float(scan[i] + (scan[i + 1] - scan[i]) * a / (a - b)) if a != b else float(scan[i])
+            )
+    return float(scan[np.nanargmin(np.abs(gap_s))])
+
+
+def _grid(problem, bmax, n_grid, chunk=64):
+    grid = np.linspace(0.0, bmax, n_grid)
+    losses = []
+    for i in range(0, n_grid, chunk):
+        part = grid[i : i + chunk]
+        pad = chunk - part.size
+        ls, _ = _stats_batch(problem, jnp.asarray(np.pad(part, (0, pad), mode="edge")))
+        losses.append(np.asarray(ls)[: part.size])
+    gl = np.concatenate(losses)
+    i = int(np.nanargmin(gl))
+    beta = grid[i]
+    if 0 < i < n_grid - 1:  # parabola through the best three points
+        y0, y1, y2 = gl[i - 1], gl[i], gl[i + 1]
+        den = y0 - 2 * y1 + y2
+        if den > 0:
+            beta = grid[i] + 0.5 * (y0 - y2) / den * (grid[1] - grid[0])
+    return float(beta), n_grid, grid, gl
+
+
+def _illinois(problem, scan, gap_s, rtol, max_iter):
+    """Illinois false position on the monotone signed gap, bracketed by the scan."""
+    a, b = float(scan[0]), float(scan[-1])
+    fa, fb = float(gap_s[0]), float(gap_s[-1])
+    hb, hl = [], []
+    n, side, converged = 0, 0, False
+    c = a
+    for n in range(1, max_iter + 1):
+        c = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
+        lc, gc = (float(np.asarray(x)[0]) for x in _stats_batch(problem, jnp.asarray([c])))
+        hb.append(c)
+        hl.append(lc)
+        if gc == 0.0 or abs(b - a) <= rtol * max(c, 1e-12):
+            converged = True
+            break
+        if (gc > 0) == (fa > 0):
+            a, fa = c, gc
+            if side == -1:
+                fb *= 0.5
+            side = -1
+        else:
+            b, fb = c, gc
+            if side == 1:
+                fa *= 0.5
+            side = 1
+        if abs(hb[-1] - (hb[-2] if len(hb) > 1 else np.inf)) <= rtol * max(c, 1e-12):
+            converged = True
+            break
+    return c, n, hb, hl, converged, n
+
+
+def _finish(
+    problem, beta, h_resps, hist_b, hist_l, n_sims, n_iter, converged, bmax, method, t_start, gap_s
+):
+    th0 = float(problem.theta0[0])
+    dem = simulate_dem(
+        problem.block,
+        beta=beta,
+        mode=problem.mode,
+        gap=float(problem.gap),
+        theta0=th0,
+        duration=problem.duration,
+        dt=float(problem.dt),
+        dashpot=problem.dashpot,
+        onset=problem.onset,
+        save_dt=SAVE_DT,
+    )
+    loss = float(np.asarray(_stats_batch(problem, jnp.asarray([beta]))[0])[0])
+    e_eff = _e_effective_np(dem, problem.n_bounces, problem.mode)
+    e_range = None
+    h_err = None
+    e_val = None
+    housner = h_resps[0] if h_resps else None
+    if problem.kind == "e":
+        e_val = float(problem.targets[0])
+        e_range = (e_val * math.exp(float(gap_s[-1])), e_val * math.exp(float(gap_s[0])))
+        t_last = _last_compared_time(housner, problem)
+        w = (np.asarray(dem.t) <= t_last).astype(float)
+        h_err = float(metrics.history_error(dem.theta, housner.theta, w))
+    return Calibration(
+        beta=float(beta),
+        e=e_val,
+        e_effective=e_eff,
+        e_exp=_e_exp_np(dem, problem),
+        loss=loss,
+        history_error=h_err,
+        history={"beta": np.asarray(hist_b), "loss": np.asarray(hist_l)},
+        n_simulations=int(n_sims),
+        n_iterations=int(n_iter),
+        converged=bool(converged),
+        e_range=e_range,
+        beta_max=bmax,
+        method=method,
+        seconds=time.perf_counter() - t_start,
+        dem=dem,
+        housner=housner,
+    )
+
+
+def _last_compared_time(resp: Response, problem: _Problem) -> float:
+    pk = metrics.peaks(
+        resp.t, resp.theta, resp.eta, problem.n_bounces, problem.mode, problem.hysteresis
+    )
+    keep = np.asarray(pk.valid) & (
+        np.asarray(pk.log_energy) - float(pk.log_energy[0]) >= math.log(MIN_ENERGY_RATIO)
+    )
+    return float(np.asarray(pk.t)[keep].max())
+
+
+def _e_effective_np(resp: Response, n_bounces: int, mode: str) -> float:
+    """The DEM's restitution from its own peaks, found in NumPy (an independent path from the
+    loss): least squares of ``log U_k - log U_0`` on ``2k`` over bounces keeping >= 2 % energy."""
+    t = np.asarray(resp.t)
+    th = np.asarray(resp.theta)
+    eta = float(resp.eta)
+    if mode == "one_sided":
+        pk = metrics.peaks(t, th, eta, n_bounces, mode, _hysteresis(mode))
+        amp = np.asarray(pk.amplitude)[1:][np.asarray(pk.valid)[1:]]
+    else:
+        _, amp = resp.peaks()
+    u0 = math.cos(eta - abs(th[0])) - math.cos(eta)
+    k = np.arange(1, min(n_bounces, amp.size) + 1)
+    if k.size == 0:
+        return float("nan")
+    u = np.cos(eta - amp[: k.size]) - math.cos(eta)
+    keep = u / u0 >= MIN_ENERGY_RATIO
+    if not np.any(keep):
+        return float("nan")
+    y = np.log(u[keep] / u0)
+    x = 2.0 * k[keep]
+    return float(np.exp(np.sum(x * y) / np.sum(x * x)))
+
+
+def _e_exp_np(resp: Response, problem: _Problem) -> np.ndarray:
+    """Eq. (6) of bounces 1-3 with the bounces found as in the loss."""
+    pk = metrics.peaks(resp.t, resp.theta, resp.eta, 3, problem.mode, problem.hysteresis)
+    amp = np.asarray(pk.amplitude)
+    ok = np.asarray(pk.valid)
+    out = np.asarray(e_exp(amp[1:4], amp[0], float(resp.eta), np.arange(1, 4)))
+    return np.where(ok[1:4], out, np.nan)
+
+
+def e_effective(
+    block: Block,
+    beta,
+    *,
+    mode: str = "two_sided",
+    theta0=None,
+    n_bounces: int | None = None,
+    dashpot: str = "closed",
+    gap: float = 0.0,
+    onset: str = "sub_step",
+    beta_max: float | None = None,
+) -> dict:
+    """The DEM's restitution at each ``beta`` [s] (an array: one vmapped batch), from free rocking.
+
+    Returns a dict of NumPy arrays over ``beta``: ``"e"`` (least-squares restitution from the
+    bounce energies, the statistic :func:`fit_beta` matches), ``"e_exp"`` (Eq. 6 of bounces
+    1-3, shape ``(n_beta, 3)``, first release amplitude), ``"ok"`` (run status).
+    """
+    betas = np.atleast_1d(np.asarray(beta, float))
+    if beta_max is None:
+        beta_max = max(float(np.max(betas)), 1e-12) / 1.25 * 1.0000001
+    problem, _ = _make_problem(
+        block,
+        e=1.0,
+        target="e",
+        mode=mode,
+        theta0=theta0,
+        n_bounces=n_bounces,
+        beta_max=max(beta_max, float(np.max(betas)) / 1.25 + 1e-15),
+        dashpot=dashpot,
+        gap=gap,
+        onset=onset,
+    )
+    log_e, e3, ok = _e_batch(problem, jnp.asarray(betas))
+    return {
+        "beta": betas,
+        "e": np.exp(np.asarray(log_e)),
+        "e_exp": np.asarray(e3),
+        "ok": np.asarray(ok),
+    }
+
+
+@eqx.filter_jit
+def _e_batch(problem: _Problem, betas):
+    def one(beta):
+        pk, status = _dem_peaks(problem, beta)
+        log_e = jnp.mean(jax.vmap(metrics.log_e_fit)(pk))
+        e3 = jnp.exp(_bounce_log_e(problem, pk))[0]
+        return log_e, e3, jnp.all(status == STATUS_OK)
+
+    return jax.vmap(one)(betas)
+
+
+class _EProblem(eqx.Module):
+    """fit_e: the DEM peaks (fixed) and what the Housner runs need."""
+
+    block: Block
+    theta0: jax.Array
+    dem: metrics.Peaks
+    mode: str = eqx.field(static=True)
+    n_bounces: int = eqx.field(static=True)
+    duration: float = eqx.field(static=True)
+    hysteresis: float = eqx.field(static=True)
+
+
+def _housner_loss(v, problem: _EProblem):
+    import diffrax
+
+    e = jax.nn.sigmoid(v)
+
+    def one(theta0, ref):
+        r = simulate_housner(
+            problem.block,
+            e=e,
+            mode=problem.mode,
+            theta0=theta0,
+            duration=problem.duration,
+            dt=SAVE_DT,
+            adjoint=diffrax.ForwardMode(),
+        )
+        pk = metrics.peaks(
+            r.t, r.theta, problem.block.eta, problem.n_bounces, problem.mode, problem.hysteresis
+        )
+        return metrics.peak_loss(pk, ref)
+
+    return jnp.mean(jax.vmap(one)(problem.theta0, problem.dem))
+
+
+@eqx.filter_custom_vjp
+def _e_loss(v, problem: _EProblem):
+    return _housner_loss(v, problem)
+
+
+@_e_loss.def_fwd
+def _e_loss_fwd(perturbed, v, problem):
+    val, dval = jax.jvp(lambda x: _housner_loss(x, problem), (v,), (jnp.ones_like(v),))
+    return val, dval
+
+
+@_e_loss.def_bwd
+def _e_loss_bwd(dval, g, perturbed, v, problem):
+    return g * dval
+
+
+@eqx.filter_jit
+def _e_step(problem: _EProblem, v, state):
+    def fn(x):
+        return _e_loss(x, problem)
+
+    value, grad = optax.value_and_grad_from_state(fn)(v, state=state)
+    updates, state = _OPT.update(grad, state, v, value=value, grad=grad, value_fn=fn)
+    n_ls = optax.tree_utils.tree_get(state, "num_linesearch_steps")
+    return optax.apply_updates(v, updates), state, value, n_ls
+
+
+@eqx.filter_jit
+def _dem_peaks_jit(problem: _Problem, beta):
+    return _dem_peaks(problem, beta)
+
+
+def fit_e(
+    block: Block,
+    beta: float,
+    *,
+    mode: str = "two_sided",
+    theta0=None,
+    n_bounces: int | None = None,
+    dashpot: str = "closed",
+    gap: float = 0.0,
+    onset: str = "sub_step",
+    rtol: float = 1e-6,
+    max_iter: int = 30,
+) -> Calibration:
+    """The paper's direction: the Housner ``e`` whose free rocking best matches the DEM's at ``beta``.
+
+    Minimises the same bounce log-energy loss (:func:`rockjax.metrics.peak_loss`, DEM as the
+    reference) over ``e = sigmoid(v)`` with L-BFGS, the derivative taken in forward mode through
+    the Housner solve (``diffrax.ForwardMode``). Starts from the DEM's own least-squares
+    restitution (for free rocking Housner's bounce energies are exactly ``e^(2k) U_0``, so that
+    start is already close; the iterations confirm it on the simulated responses).
+
+    Returns:
+        A :class:`Calibration` whose ``e`` is the fitted Housner restitution.
+    """
+    t_start = time.perf_counter()
+    if not (np.isfinite(beta) and beta >= 0):
+        raise ValueError(f"beta must be a damping coefficient >= 0 in s; got beta={beta}.")
+    problem, _ = _make_problem(
+        block,
+        e=1.0,
+        target="e",
+        mode=mode,
+        theta0=theta0,
+        n_bounces=n_bounces,
+        beta_max=max(float(beta), 1e-9),
+        dashpot=dashpot,
+        gap=gap,
+        onset=onset,
+    )
+    dem_pk, status = _dem_peaks_jit(problem, jnp.asarray(float(beta)))
+    if not bool(np.all(np.asarray(status) == STATUS_OK)):
+        raise ValueError(f"the DEM run at beta={beta} s failed; check beta and the block.")
+    log_e0 = float(np.nanmean(np.asarray(jax.vmap(metrics.log_e_fit)(dem_pk))))
+    if not np.isfinite(log_e0):
+        raise ValueError(
+            f"the DEM block at beta={beta} s does not bounce after its release (no impact "
+            "keeps 2 % of the release energy): no Housner e matches it; lower beta."
+        )
+    eproblem = _EProblem(
+        block=problem.block,
+        theta0=problem.theta0,
+        dem=dem_pk,
+        mode=mode,
+        n_bounces=problem.n_bounces,
+        duration=problem.duration,
+        hysteresis=problem.hysteresis,
+    )
+    e0 = min(max(math.exp(log_e0), 1e-3), 1 - 1e-6)
+    v = jnp.asarray(math.log(e0 / (1 - e0)))
+    state = _OPT.init(v)
+    hist_e, hist_l = [e0], []
+    n_sims, converged, n_iter = 0, False, 0
+    for n_iter in range(1, max_iter + 1):
+        v, state, value, n_ls = _e_step(eproblem, v, state)
+        e_now = float(jax.nn.sigmoid(v))
+        n_sims += int(n_ls) + (1 if n_iter == 1 else 0)
+        hist_l.append(float(value))
+        if abs(e_now - hist_e[-1]) <= rtol:
+            hist_e.append(e_now)
+            converged = True
+            break
+        hist_e.append(e_now)
+    e_fit = float(jax.nn.sigmoid(v))
+    th0 = float(problem.theta0[0])
+    dem = _dem(problem, float(beta), th0)
+    housner = simulate_housner(
+        problem.block, e=e_fit, mode=mode, theta0=th0, duration=problem.duration, dt=SAVE_DT
+    )
+    t_last = _last_compared_time(housner, problem)
+    w = (np.asarray(dem.t) <= t_last).astype(float)
+    return Calibration(
+        beta=float(beta),
+        e=e_fit,
+        e_effective=_e_effective_np(dem, problem.n_bounces, mode),
+        e_exp=_e_exp_np(dem, problem),
+        loss=float(_housner_loss(v, eproblem)),
+        history_error=float(metrics.history_error(dem.theta, housner.theta, w)),
+        history={"e": np.asarray(hist_e[1:]), "loss": np.asarray(hist_l)},
+        n_simulations=n_sims,
+        n_iterations=n_iter,
+        converged=converged,
+        e_range=None,
+        beta_max=float(beta),
+        method="lbfgs",
+        seconds=time.perf_counter() - t_start,
+        dem=dem,
+        housner=housner,
+    )
+
+
+__all__: list[Any] = ["BOUNCE_FRACTIONS", "Calibration", "e_effective", "fit_beta", "fit_e"]
