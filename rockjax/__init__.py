@@ -43,6 +43,7 @@ from .block import Block as Block  # noqa: E402
 from .calibration import Calibration as Calibration  # noqa: E402
 from .calibration import fit_beta as fit_beta  # noqa: E402
 from .calibration import fit_e as fit_e  # noqa: E402
+from .calibration import fit_history as fit_history  # noqa: E402
 from .dem import simulate_dem as simulate_dem  # noqa: E402
 from .dem import stable_dt as stable_dt  # noqa: E402
 from .fragility import Fragility as Fragility  # noqa: E402
@@ -80,6 +81,7 @@ __all__ = [
     "e_isr",
     "fit_beta",
     "fit_e",
+    "fit_history",
     "fragility",
     "ida",
     "metrics",

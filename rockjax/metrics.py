@@ -23,7 +23,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Bool, Float, Int
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from .relations import rocking_energy
 
@@ -51,15 +51,15 @@ class Peaks(eqx.Module):
         n_impacts: Number of impacts counted in the whole run (int).
     """
 
-    t: Float[Array, " n"]
-    amplitude: Float[Array, " n"]
-    log_energy: Float[Array, " n"]
-    valid: Bool[Array, " n"]
-    n_impacts: Int[Array, ""]
+    t: Float[Array, "*batch n"]
+    amplitude: Float[Array, "*batch n"]
+    log_energy: Float[Array, "*batch n"]
+    valid: Bool[Array, "*batch n"]
+    n_impacts: Int[Array, "*batch"]
 
 
 def half_cycles(
-    theta: Float[Array, " T"], eta, mode: str = "two_sided", hysteresis: float = HYSTERESIS
+    theta: Float[ArrayLike, " T"], eta, mode: str = "two_sided", hysteresis: float = HYSTERESIS
 ) -> Int[Array, " T"]:
     """Index of the half-cycle each sample belongs to (0 before the first impact) [-].
 
@@ -102,8 +102,8 @@ def half_cycles(
 
 
 def peaks(
-    t: Float[Array, " T"],
-    theta: Float[Array, " T"],
+    t: Float[ArrayLike, " T"],
+    theta: Float[ArrayLike, " T"],
     eta,
     n: int,
     mode: str = "two_sided",
@@ -209,9 +209,9 @@ def log_e_fit(pk: Peaks, min_energy_ratio: float = 0.02):
 
 
 def history_error(
-    theta: Float[Array, " T"],
-    theta_ref: Float[Array, " T"],
-    weights: Float[Array, " T"] | None = None,
+    theta: Float[ArrayLike, " T"],
+    theta_ref: Float[ArrayLike, " T"],
+    weights: Float[ArrayLike, " T"] | None = None,
 ):
     """The paper's weighted-mean time-history error, as a normalised weighted RMS [-].
 
