@@ -208,18 +208,73 @@ def _loss_u_bwd(dval, g, perturbed, u, problem):
     return g * dval
 
 
-_OPT = optax.lbfgs(memory_size=5)
+# L-BFGS with a backtracking (Armijo) line search: its trial points need the loss only, so
+# one iteration is one forward-mode derivative plus (usually) one plain run, and the compiled
+# program holds one copy of each (a zoom line search holds four derivative copies: ~3x the
+# compile time).
+_OPT = optax.lbfgs(
+    memory_size=5,
+    linesearch=optax.scale_by_backtracking_linesearch(
+        max_backtracking_steps=12, decrease_factor=0.5
+    ),
+)
 
 
 @eqx.filter_jit
-def _lbfgs_step(problem: _Problem, u, state):
-    def fn(v):
-        return _loss_u(v, problem)
+def _value_and_grad(loss, u, problem):
+    return jax.value_and_grad(loss)(u, problem)
 
-    value, grad = optax.value_and_grad_from_state(fn)(u, state=state)
+
+@eqx.filter_jit
+def _update(loss, u, state, value, grad, problem):
+    def fn(x):
+        return loss(x, problem)
+
     updates, state = _OPT.update(grad, state, u, value=value, grad=grad, value_fn=fn)
     n_ls = optax.tree_utils.tree_get(state, "num_linesearch_steps")
-    return optax.apply_updates(u, updates), state, value, n_ls
+    failed = optax.tree_utils.tree_get(state, "decrease_error") > 0
+    return optax.apply_updates(u, updates), state, n_ls, failed
+
+
+def _minimize(loss, problem, u0, params_of, rtol: float, max_iter: int):
+    """L-BFGS on ``loss(u, problem)`` from ``u0``; stops when no parameter (``params_of(u)``,
+    a tuple of floats) moves by more than ``rtol`` relative in an iteration, or when the line
+    search twice in a row (the second time from a reset curvature memory) finds no decrease:
+    a stationary point to within the loss's numerical noise.
+
+    Returns ``(u, history of (params, loss), n_simulations, n_iterations, converged)``; one
+    simulation is one loss evaluation (with or without its derivative).
+    """
+    u = jnp.asarray(u0, float)
+    state = _OPT.init(u)
+    hist, n_sims, converged, n_iter, restarted = [], 0, False, 0, False
+    prev = params_of(u)
+    for n_iter in range(1, max_iter + 1):
+        value, grad = _value_and_grad(loss, u, problem)
+        n_sims += 1
+        if not np.isfinite(float(value)):
+            raise ValueError(
+                f"the calibration loss is not finite at {prev} (a simulation failed); "
+                "check the block, or narrow beta_max."
+            )
+        u_new, state, n_ls, failed = _update(loss, u, state, value, grad, problem)
+        n_sims += int(n_ls)
+        if bool(failed):
+            hist.append((prev, float(value)))
+            if restarted:  # twice in a row: stationary to within the loss's noise
+                converged = True
+                break
+            state, restarted = _OPT.init(u), True  # drop the curvature memory, retry
+            continue
+        restarted = False
+        u = u_new
+        now = params_of(u)
+        hist.append((now, float(value)))
+        if all(abs(a - b) <= rtol * max(abs(a), 1e-12) for a, b in zip(now, prev)):
+            converged = True
+            break
+        prev = now
+    return u, hist, n_sims, n_iter, converged
 
 
 # --------------------------------------------------------------------------- set-up
@@ -456,20 +511,12 @@ def fit_beta(
                 f"beta0 must lie in [0, {float(problem.beta_cap):.4g}] s; got {beta0}."
             )
         u0 = max(float(beta0), 1e-4 * bmax) * slope
-        u = jnp.asarray(u0)
-        state = _OPT.init(u)
-        converged = False
-        beta_prev = float(beta0)
-        for n_iter in range(1, max_iter + 1):
-            u, state, value, n_ls = _lbfgs_step(problem, u, state)
-            beta = float(_beta_of_u(problem, u))
-            n_sims += int(n_ls) + (1 if n_iter == 1 else 0)
-            hist_b.append(beta)
-            hist_l.append(float(value))
-            if abs(beta - beta_prev) <= rtol * max(beta, 1e-6 * bmax):
-                converged = True
-                break
-            beta_prev = beta
+        u, hist, n_add, n_iter, converged = _minimize(
+            _loss_u, problem, u0, lambda v: (float(_beta_of_u(problem, v)),), rtol, max_iter
+        )
+        n_sims += n_add
+        hist_b += [p[0] for p, _ in hist]
+        hist_l += [v for _, v in hist]
         beta = float(_beta_of_u(problem, u))
     return _finish(
         problem,
@@ -744,17 +791,6 @@ def _e_loss_bwd(dval, g, perturbed, v, problem):
 
 
 @eqx.filter_jit
-def _e_step(problem: _EProblem, v, state):
-    def fn(x):
-        return _e_loss(x, problem)
-
-    value, grad = optax.value_and_grad_from_state(fn)(v, state=state)
-    updates, state = _OPT.update(grad, state, v, value=value, grad=grad, value_fn=fn)
-    n_ls = optax.tree_utils.tree_get(state, "num_linesearch_steps")
-    return optax.apply_updates(v, updates), state, value, n_ls
-
-
-@eqx.filter_jit
 def _dem_peaks_jit(problem: _Problem, beta):
     return _dem_peaks(problem, beta)
 
@@ -818,19 +854,11 @@ def fit_e(
     )
     e0 = min(max(math.exp(log_e0), 1e-3), 1 - 1e-6)
     v = jnp.asarray(math.log(e0 / (1 - e0)))
-    state = _OPT.init(v)
-    hist_e, hist_l = [e0], []
-    n_sims, converged, n_iter = 0, False, 0
-    for n_iter in range(1, max_iter + 1):
-        v, state, value, n_ls = _e_step(eproblem, v, state)
-        e_now = float(jax.nn.sigmoid(v))
-        n_sims += int(n_ls) + (1 if n_iter == 1 else 0)
-        hist_l.append(float(value))
-        if abs(e_now - hist_e[-1]) <= rtol:
-            hist_e.append(e_now)
-            converged = True
-            break
-        hist_e.append(e_now)
+    v, hist, n_sims, n_iter, converged = _minimize(
+        _e_loss, eproblem, v, lambda x: (float(jax.nn.sigmoid(x)),), rtol, max_iter
+    )
+    hist_e = [e0] + [p[0] for p, _ in hist]
+    hist_l = [val for _, val in hist]
     e_fit = float(jax.nn.sigmoid(v))
     th0 = float(problem.theta0[0])
     dem = _dem(problem, float(beta), th0)
@@ -933,17 +961,6 @@ def _h_loss_bwd(grad, g, perturbed, u, problem):
     return g * grad
 
 
-@eqx.filter_jit
-def _h_step(problem: _HProblem, u, state):
-    def fn(x):
-        return _h_loss(x, problem)
-
-    value, grad = optax.value_and_grad_from_state(fn)(u, state=state)
-    updates, state = _OPT.update(grad, state, u, value=value, grad=grad, value_fn=fn)
-    n_ls = optax.tree_utils.tree_get(state, "num_linesearch_steps")
-    return optax.apply_updates(u, updates), state, value, n_ls
-
-
 @dataclasses.dataclass(frozen=True)
 class HistoryFit:
     """Result of :func:`fit_history`: ``beta`` [s] and the effective width ``b`` [m] of the DEM
@@ -1035,22 +1052,19 @@ def fit_history(
         dt=float(dt),
         hysteresis=hyst,
     )
-    u = jnp.zeros(2)
-    state = _OPT.init(u)
-    hist = {"beta": [], "b": [], "loss": []}
-    n_sims, converged, n_iter = 0, False, 0
-    prev = np.zeros(2)
-    for n_iter in range(1, max_iter + 1):
-        u, state, value, n_ls = _h_step(problem, u, state)
-        n_sims += int(n_ls) + (1 if n_iter == 1 else 0)
-        beta, b = (float(x) for x in _history_params(problem, u))
-        hist["beta"].append(beta)
-        hist["b"].append(b)
-        hist["loss"].append(float(value))
-        if np.max(np.abs(np.asarray(u) - prev)) <= rtol:
-            converged = True
-            break
-        prev = np.asarray(u)
+    u, hist_raw, n_sims, n_iter, converged = _minimize(
+        _h_loss,
+        problem,
+        jnp.zeros(2),
+        lambda x: tuple(float(y) for y in _history_params(problem, x)),
+        rtol,
+        max_iter,
+    )
+    hist = {
+        "beta": [p[0] for p, _ in hist_raw],
+        "b": [p[1] for p, _ in hist_raw],
+        "loss": [v for _, v in hist_raw],
+    }
     beta, b = (float(x) for x in _history_params(problem, u))
     fitted = eqx.tree_at(lambda k: k.b, block, b)
     dem = simulate_dem(
