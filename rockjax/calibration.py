@@ -167,7 +167,7 @@ def _bounce_log_e(problem: _Problem, pk: metrics.Peaks):
 
 
 def _stats(problem: _Problem, beta):
-    """(loss, signed gap) at ``beta``; NaN when a run failed (status != OK)."""
+    """(loss, signed gap, the DEM's own log e) at ``beta``; NaN when a run failed."""
     pk, status = _dem_peaks(problem, beta)
     if problem.kind == "e":
         loss = jax.vmap(metrics.peak_loss)(pk, problem.ref)
@@ -176,8 +176,9 @@ def _stats(problem: _Problem, beta):
         d = _bounce_log_e(problem, pk) - jnp.log(problem.targets)[None, :]
         loss = jnp.mean(d * d, axis=-1)
         gap = jnp.mean(d, axis=-1)
+    own = jnp.mean(jax.vmap(metrics.log_e_fit)(pk))  # the DEM's own log e, target-free
     bad = jnp.any(status != STATUS_OK)
-    return jnp.where(bad, jnp.nan, jnp.mean(loss)), jnp.where(bad, jnp.nan, jnp.mean(gap))
+    return tuple(jnp.where(bad, jnp.nan, jnp.mean(x)) for x in (loss, gap, own))
 
 
 @eqx.filter_jit
@@ -392,15 +393,19 @@ def _make_problem(
     return problem, resps
 
 
-def _range_message(problem, g0, g1, beta_max):
+def _range_message(problem, g0, g1, beta_max, e_range):
     if problem.kind == "e":
         e = float(problem.targets[0])
-        lo, hi = e * math.exp(g1), e * math.exp(g0)
+        lo, hi = e_range
+        fix = (
+            "; the 'clipped' dashpot saturates: use dashpot='closed' for lower e"
+            if problem.dashpot == "clipped"
+            else ", or widen beta_max for lower e"
+        )
         return (
             f"target e={e:.4g} is not reachable by this DEM block: over beta in "
             f"[0, {beta_max:.4g}] s its restitution spans e = {lo:.4f} (beta_max) to {hi:.4f} "
-            f"(beta = 0; dashpot={problem.dashpot!r}). Pick e in that range, or widen beta_max "
-            "(a 'clipped' dashpot saturates: use dashpot='closed' for lower e)."
+            f"(beta = 0; dashpot={problem.dashpot!r}). Pick e in that range{fix}."
         )
     return (
         f"the facade bounce targets {np.round(np.asarray(problem.targets), 4).tolist()} are not "
@@ -409,13 +414,13 @@ def _range_message(problem, g0, g1, beta_max):
     )
 
 
-def _check_reachable(problem, g0, g1, beta_max):
+def _check_reachable(problem, g0, g1, beta_max, e_range):
     if not (np.isfinite(g0) and np.isfinite(g1)):
         raise ValueError(
             "a DEM calibration run failed (non-finite or unstable); check the block and beta_max."
         )
     if not (g0 >= 0.0 >= g1):
-        raise ValueError(_range_message(problem, g0, g1, beta_max))
+        raise ValueError(_range_message(problem, g0, g1, beta_max, e_range))
 
 
 # --------------------------------------------------------------------------- public API
@@ -485,9 +490,10 @@ def fit_beta(
         scan = np.linspace(0.0, bmax, max(2, n_seed))
     else:
         scan = np.array([0.0, bmax])
-    loss_s, gap_s = map(np.asarray, _stats_batch(problem, jnp.asarray(scan)))
+    loss_s, gap_s, own_s = map(np.asarray, _stats_batch(problem, jnp.asarray(scan)))
     n_sims = scan.size
-    _check_reachable(problem, float(gap_s[0]), float(gap_s[-1]), bmax)
+    e_range = (math.exp(float(own_s[-1])), math.exp(float(own_s[0])))
+    _check_reachable(problem, float(gap_s[0]), float(gap_s[-1]), bmax, e_range)
     slope = max((gap_s[0] - gap_s[-1]) / bmax, 1e-12)
     problem = eqx.tree_at(lambda p: p.scale, problem, jnp.asarray(slope))
     hist_b, hist_l = list(scan), list(loss_s)
@@ -530,7 +536,7 @@ def fit_beta(
         bmax,
         method,
         t_start,
-        gap_s,
+        e_range,
     )
 
 
@@ -551,7 +557,7 @@ def _grid(problem, bmax, n_grid, chunk=64):
     for i in range(0, n_grid, chunk):
         part = grid[i : i + chunk]
         pad = chunk - part.size
-        ls, _ = _stats_batch(problem, jnp.asarray(np.pad(part, (0, pad), mode="edge")))
+        ls = _stats_batch(problem, jnp.asarray(np.pad(part, (0, pad), mode="edge")))[0]
         losses.append(np.asarray(ls)[: part.size])
     gl = np.concatenate(losses)
     i = int(np.nanargmin(gl))
@@ -573,7 +579,7 @@ def _illinois(problem, scan, gap_s, rtol, max_iter):
     c = a
     for n in range(1, max_iter + 1):
         c = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
-        lc, gc = (float(np.asarray(x)[0]) for x in _stats_batch(problem, jnp.asarray([c])))
+        lc, gc, _ = (float(np.asarray(x)[0]) for x in _stats_batch(problem, jnp.asarray([c])))
         hb.append(c)
         hl.append(lc)
         if gc == 0.0 or abs(b - a) <= rtol * max(c, 1e-12):
@@ -596,7 +602,18 @@ def _illinois(problem, scan, gap_s, rtol, max_iter):
 
 
 def _finish(
-    problem, beta, h_resps, hist_b, hist_l, n_sims, n_iter, converged, bmax, method, t_start, gap_s
+    problem,
+    beta,
+    h_resps,
+    hist_b,
+    hist_l,
+    n_sims,
+    n_iter,
+    converged,
+    bmax,
+    method,
+    t_start,
+    e_range,
 ):
     th0 = float(problem.theta0[0])
     dem = simulate_dem(
@@ -613,13 +630,11 @@ def _finish(
     )
     loss = float(np.asarray(_stats_batch(problem, jnp.asarray([beta]))[0])[0])
     e_eff = _e_effective_np(dem, problem.n_bounces, problem.mode)
-    e_range = None
     h_err = None
     e_val = None
     housner = h_resps[0] if h_resps else None
     if problem.kind == "e":
         e_val = float(problem.targets[0])
-        e_range = (e_val * math.exp(float(gap_s[-1])), e_val * math.exp(float(gap_s[0])))
         t_last = _last_compared_time(housner, problem)
         w = (np.asarray(dem.t) <= t_last).astype(float)
         h_err = float(metrics.history_error(dem.theta, housner.theta, w))

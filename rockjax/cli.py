@@ -10,6 +10,12 @@ dynamic analysis (:func:`rockjax.ida`) of one block under FEMA P695 record sets
 (:func:`rockjax.records.fema_p695`) or PEER ``.AT2`` files, writes the Dataset to NetCDF and
 prints a summary.
 
+``rockjax calibrate --b 0.25 --h 3 [--e 0.975]`` fits the DEM damping ``beta`` of one block so
+that its free rocking matches Housner's with restitution ``e`` (:func:`rockjax.fit_beta`; default
+``e = e_H``, Eq. 2), or, with ``--target bounces``, a facade's measured bounce ratios. It prints
+``beta``, the DEM's effective ``e`` and the reachable range, and writes ``calibration.png`` (DEM
+at the fitted ``beta`` vs Housner, and the loss history) and ``calibration.json``.
+
 Errors in the input are reported as one ``error: ...`` line on stderr with exit status 2.
 """
 
@@ -133,6 +139,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     demo.set_defaults(run=_demo)
     _add_ida_parser(sub)
+    _add_calibrate_parser(sub)
     return parser
 
 
@@ -755,6 +762,216 @@ def _ida_argv(args: argparse.Namespace) -> list[str]:
         parts.append("--normalized")
     parts += ["--gap", f"{args.gap:g}", "--tail", f"{args.tail:g}"]
     return parts + ["--chunk-size", str(args.chunk_size), "--out", str(args.out)]
+
+
+# ----------------------------------------------------------------------------- calibrate
+
+
+def _add_calibrate_parser(sub) -> None:
+    from .calibration import BOUNCE_FRACTIONS, METHODS, MODES
+
+    fractions = "/".join(f"{100 * f:g}" for f in BOUNCE_FRACTIONS)
+    p = sub.add_parser(
+        "calibrate",
+        help="fit the DEM damping beta to a restitution e; writes a figure and JSON",
+        description=(
+            "Fit the DEM's stiffness-proportional damping beta [s] of one block so that its "
+            "free rocking matches Housner's with restitution e (rockjax.fit_beta; bounce "
+            "log-energy loss, L-BFGS by default). With --target bounces (facades, one-sided) "
+            f"the DEM's e_exp of bounces 1-3 is fitted to {fractions} % of |e_1SR| instead. "
+            "Prints beta and the DEM's effective e; writes calibration.png (both time histories "
+            "and the loss history) and calibration.json into --out."
+        ),
+        allow_abbrev=False,
+    )
+    p.add_argument("--b", type=float, required=True, metavar="M", help="block thickness [m]")
+    p.add_argument("--h", type=float, required=True, metavar="M", help="block height [m]")
+    p.add_argument(
+        "--e",
+        type=float,
+        default=None,
+        metavar="E",
+        help="target Housner restitution [-] (default: e_H, Eq. 2; |e_1SR| with --mode one_sided)",
+    )
+    p.add_argument(
+        "--mode",
+        choices=MODES,
+        default=None,
+        help="two_sided: parapet; one_sided: facade (default: two_sided; one_sided with "
+        "--target bounces)",
+    )
+    p.add_argument(
+        "--target",
+        choices=("e", "bounces"),
+        default="e",
+        help="e: match Housner with --e; bounces: facade bounce ratios (default: e)",
+    )
+    p.add_argument(
+        "--theta0",
+        type=float,
+        default=RELEASE,
+        metavar="FRAC",
+        help=f"release rotation as a fraction of eta, in [0.05, 1) (default {RELEASE:g})",
+    )
+    p.add_argument(
+        "--E", type=float, default=None, metavar="PA", help="Young's modulus [Pa] (default 1.8e9)"
+    )
+    p.add_argument(
+        "--rho", type=float, default=None, metavar="KG_M3", help="density [kg/m^3] (default 1800)"
+    )
+    p.add_argument(
+        "--beta-max",
+        type=float,
+        default=None,
+        metavar="S",
+        help="upper end of the beta search [s] (default: 2 beta_DeJong)",
+    )
+    p.add_argument(
+        "--method",
+        choices=METHODS,
+        default="lbfgs",
+        help="lbfgs (gradient), grid (256 points) or root (false position) (default: lbfgs)",
+    )
+    p.add_argument(
+        "--out",
+        default="calibration_out",
+        metavar="DIR",
+        help="output folder (default: calibration_out)",
+    )
+    p.set_defaults(run=_calibrate)
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    from .calibration import BOUNCE_FRACTIONS, fit_beta
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} exists and is not a folder; give a folder path.")
+    mode = args.mode or ("one_sided" if args.target == "bounces" else "two_sided")
+    if args.target == "bounces":
+        if mode != "one_sided":
+            raise ValueError(
+                "--target bounces is the facade calibration; it needs --mode one_sided "
+                "(or use --target e for a parapet)."
+            )
+        if args.e is not None:
+            raise ValueError(
+                f"--target bounces takes no --e (its targets are fractions of |e_1SR|); "
+                f"got --e {args.e:g}."
+            )
+    if not (math.isfinite(args.theta0) and 0.05 <= args.theta0 < 1.0):
+        raise ValueError(
+            f"--theta0 is the release rotation as a fraction of eta and must lie in [0.05, 1); "
+            f"got --theta0 {args.theta0:g}."
+        )
+    if args.e is not None and not (math.isfinite(args.e) and 0.0 < args.e <= 1.0):
+        raise ValueError(
+            f"--e (restitution, dimensionless) must lie in (0, 1]; got --e {args.e:g}."
+        )
+    material = {k: v for k, v in (("E", args.E), ("rho", args.rho)) if v is not None}
+    block = Block(b=args.b, h=args.h, **material)  # raises ValueError on bad input
+    eta = float(block.eta)
+    e_h = float(e_housner(block))
+    e_1sr = abs(float(e_isr(block)))
+    b_dj = float(beta_dejong(block))
+    e = None
+    if args.target == "e":
+        e = args.e if args.e is not None else (e_h if mode == "two_sided" else e_1sr)
+    if e is not None:
+        default = {"two_sided": " (default: e_H, Eq. 2)", "one_sided": " (default: |e_1SR|, Eq. 5)"}
+        goal = f"e = {e:.4f}" + (default[mode] if args.e is None else "")
+    else:
+        values = " / ".join(f"{f * e_1sr:.4f}" for f in BOUNCE_FRACTIONS)
+        percents = "/".join(f"{100 * f:g}" for f in BOUNCE_FRACTIONS)
+        goal = f"bounces 1-3: e_exp = {values} ({percents} % of |e_1SR| = {e_1sr:.4f})"
+    print(
+        f"rockjax {__version__} calibrate: block {args.b:g} x {args.h:g} m ({mode}), eta = "
+        f"{eta:.4f} rad, beta_DeJong = {b_dj:.4g} s; release {args.theta0:g} eta; "
+        f"method {args.method} -> {out}/",
+        flush=True,
+    )
+    print(f"target: {goal}", flush=True)
+    fit = fit_beta(
+        block,
+        e,
+        target=args.target,
+        mode=mode,
+        theta0=args.theta0 * eta,
+        beta_max=args.beta_max,
+        method=args.method,
+    )
+    e_exp_fit = np.asarray(fit.e_exp, float)
+    print(f"beta         = {fit.beta:.6g} s  ({fit.beta / b_dj:.4f} beta_DeJong)", flush=True)
+    print(f"e_effective  = {fit.e_effective:.5f}  (DEM, least squares on bounce energies)")
+    print(f"e_exp 1-3    = {_fmt_e(e_exp_fit)}  (DEM, Eq. 6)")
+    if fit.e_range is not None:
+        print(
+            f"reachable e  = {fit.e_range[0]:.4f} (beta_max = {fit.beta_max:.4g} s) to "
+            f"{fit.e_range[1]:.4f} (beta = 0)"
+        )
+    else:
+        print(f"searched     = beta in [0, {fit.beta_max:.4g}] s")
+    extra = "" if fit.history_error is None else f", history error {fit.history_error:.4g}"
+    print(f"loss         = {fit.loss:.3g}{extra}")
+    print(
+        f"iterations   = {fit.n_iterations} ({'converged' if fit.converged else 'NOT converged'}), "
+        f"simulations = {fit.n_simulations}, {fit.seconds:.1f} s (first call includes compilation)",
+        flush=True,
+    )
+
+    out.mkdir(parents=True, exist_ok=True)
+    axes = plot.calibration(fit)
+    axes[0].set_title(
+        f"{args.b:g} x {args.h:g} m {mode.replace('_', '-')} block, release "
+        f"{args.theta0:g} eta: beta = {fit.beta:.4g} s"
+    )
+    png = _save(axes[0], out / "calibration.png")
+    result = {
+        "rockjax_version": __version__,
+        "command": "rockjax " + " ".join(_calibrate_argv(args)),
+        "block": _block_info(block) | {"e_H": e_h, "e_1sr": e_1sr, "beta_dejong_s": b_dj},
+        "mode": mode,
+        "target": args.target,
+        "theta0_over_eta": args.theta0,
+        "e_target": fit.e,
+        "bounce_targets": None if args.target == "e" else [f * e_1sr for f in BOUNCE_FRACTIONS],
+        "beta_s": fit.beta,
+        "beta_over_beta_dejong": fit.beta / b_dj,
+        "e_effective": fit.e_effective,
+        "e_exp": e_exp_fit,
+        "e_range": None if fit.e_range is None else list(fit.e_range),
+        "beta_max_s": fit.beta_max,
+        "loss": fit.loss,
+        "history_error": fit.history_error,
+        "history": {k: np.asarray(v) for k, v in fit.history.items()},
+        "n_simulations": fit.n_simulations,
+        "n_iterations": fit.n_iterations,
+        "converged": fit.converged,
+        "method": fit.method,
+        "seconds": fit.seconds,
+        "dem_status": int(fit.dem.status),
+        "files": [png, "calibration.json"],
+    }
+    with open(out / "calibration.json", "w") as f:
+        json.dump(_jsonable(result), f, indent=2)
+        f.write("\n")
+    print(f"wrote {png} and calibration.json to {out}/", flush=True)
+    if not fit.converged:
+        print("warning: the fit did not converge within its iteration cap", file=sys.stderr)
+    return 0
+
+
+def _calibrate_argv(args: argparse.Namespace) -> list[str]:
+    parts = ["calibrate", "--b", f"{args.b:g}", "--h", f"{args.h:g}"]
+    for flag, value in (("--e", args.e), ("--E", args.E), ("--rho", args.rho)):
+        if value is not None:
+            parts += [flag, f"{value:g}"]
+    if args.mode is not None:
+        parts += ["--mode", args.mode]
+    parts += ["--target", args.target, "--theta0", f"{args.theta0:g}"]
+    if args.beta_max is not None:
+        parts += ["--beta-max", f"{args.beta_max:g}"]
+    return parts + ["--method", args.method, "--out", str(args.out)]
 
 
 if __name__ == "__main__":

@@ -7,11 +7,12 @@ memory and lets a progress line print between chunks. The last chunk is padded (
 zero-scale runs of the first record, dropped afterwards) to the same shape, so the batch
 compiles once.
 
-Records. They are zero-padded to a common length plus a free-vibration ``tail`` [s], so the
-block can finish its last excursion (or overturn) after the strongest record ends. Records of
-different ``dt`` are linearly interpolated onto the smallest one
-(:meth:`rockjax.GroundMotion.resampled`: no anti-alias filter is needed, as this only
-upsamples). Each run sees ``scale * ag`` (and ``scale * ag_v``, if any record has a vertical
+Records. Every run lasts ``t_end`` = the longest record plus a free-vibration ``tail`` [s]
+(records are zero-padded), so the block can finish its last excursion (or overturn) after the
+strongest record ends. Each record runs on its own ``dt``: records are grouped by ``dt`` and
+each group is batched separately (one compilation per group), so a set that mixes steps (the
+FEMA near-field set has 0.0024 to 0.02 s) does not run every record on the finest one. Each
+run sees ``scale * ag`` (and ``scale * ag_v``, if any record of its group has a vertical
 component; the others get zeros).
 
 Engineering demand parameters, per run:
@@ -82,7 +83,7 @@ def ida(
     Args:
         block: The block (scalar geometry and material).
         records: Ground motions, with distinct names. They may differ in length (zero-padded to
-            the longest, plus ``tail``) and in ``dt`` (resampled to the smallest).
+            the longest, plus ``tail``) and in ``dt`` (each runs on its own).
         scales: Scale factors [-] applied to each record, strictly increasing, finite, >= 0.
         model: ``"dem"`` (:func:`rockjax.simulate_dem`) or ``"housner"``
             (:func:`rockjax.simulate_housner`).
@@ -106,9 +107,9 @@ def ida(
         ``record`` (names), ``scale``, and per record ``pga`` [m/s^2] (of the record as run),
         ``dt`` [s] and ``duration`` [s] (as given), ``name``, and ``meta_<key>`` for every
         metadata key of any record ("" where a record lacks it). ``attrs`` hold the run
-        parameters (model, mode, beta or e, the block, gap, tail, the common record step
-        ``dt_record``, the run length ``t_end``, the solver step ``dt_step``, the rockjax version
-        and the UTC creation time). ``ds.to_netcdf(path)`` writes it (via h5netcdf).
+        parameters (model, mode, beta or e, the block, gap, tail, the run length ``t_end``,
+        the rockjax version and the UTC creation time); the coordinate ``dt_step`` holds each
+        record's solver step [s]. ``ds.to_netcdf(path)`` writes it (via h5netcdf).
 
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
@@ -152,40 +153,46 @@ def ida(
         # the step bound simulate_housner picks for a concrete block
         dt_bound = P_DT_TARGET / float(block.p)
     gap, tail = float(gap), float(tail)
-    ag, ag_v, dt_rec, pga = _stack_records(records, tail)
-    n_rec, n_time = ag.shape
-    t_end = (n_time - 1) * dt_rec
-
-    n_runs = n_rec * scales.size
-    size = min(chunk_size, n_runs)
-    n_chunks = math.ceil(n_runs / size)
-    rec_idx = np.zeros(n_chunks * size, dtype=np.int32)
-    scale_flat = np.zeros(n_chunks * size)
-    rec_idx[:n_runs] = np.repeat(np.arange(n_rec, dtype=np.int32), scales.size)
-    scale_flat[:n_runs] = np.tile(scales, n_rec)
-    ag_j = jnp.asarray(ag)
-    ag_v_j = None if ag_v is None else jnp.asarray(ag_v)
-    config = dict(model=model, mode=mode, beta=beta, e=e, gap=float(gap), dt_rec=dt_rec)
+    groups, pga, t_end = _group_records(records, tail)
+    n_rec = len(records)
+    config = dict(model=model, mode=mode, beta=beta, e=e, gap=float(gap), dt_bound=dt_bound)
     # Both simulators split each record step into ceil(dt_rec / dt_bound) equal steps.
-    config["dt_bound"] = dt_bound
-    dt_step = dt_rec / max(1, math.ceil(dt_rec / dt_bound - 1e-9))
-
-    outs = []
+    dt_step = np.zeros(n_rec)
+    plan = []  # (group, chunk of flat run indices)
+    for g in groups:
+        n_runs_g = g.index.size * scales.size
+        size = min(chunk_size, n_runs_g)
+        for k in range(math.ceil(n_runs_g / size)):
+            plan.append((g, k, size, n_runs_g))
+        dt_step[g.index] = g.dt / max(1, math.ceil(g.dt / dt_bound - 1e-9))
+    n_runs = n_rec * scales.size
+    grid = {
+        "max_d_over_b": np.full((n_rec, scales.size), np.nan),
+        "max_theta_over_eta": np.full((n_rec, scales.size), np.nan),
+        "collapse": np.zeros((n_rec, scales.size), bool),
+        "status": np.zeros((n_rec, scales.size), np.int32),
+    }
     start = time.perf_counter()
-    for k in range(n_chunks):
-        sl = slice(k * size, (k + 1) * size)
-        out = _run_chunk(block, ag_j, ag_v_j, rec_idx[sl], scale_flat[sl], **config)
-        outs.append(jax.device_get(out))
+    done = 0
+    for n, (g, k, size, n_runs_g) in enumerate(plan):
+        flat = np.arange(k * size, (k + 1) * size)
+        real = flat < n_runs_g
+        flat = np.where(real, flat, 0)  # padding: repeats of the group's first run, dropped
+        local, j = np.divmod(flat, scales.size)
+        out = _run_chunk(
+            block, g.ag, g.ag_v, local.astype(np.int32), scales[j], dt_rec=g.dt, **config
+        )
+        out = jax.device_get(out)
+        for key in grid:
+            grid[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
+        done += int(real.sum())
         if progress:
-            done = min((k + 1) * size, n_runs)
             print(
-                f"rockjax.ida: chunk {k + 1}/{n_chunks}, {done}/{n_runs} runs, "
+                f"rockjax.ida: chunk {n + 1}/{len(plan)} (dt = {g.dt:g} s), {done}/{n_runs} runs, "
                 f"{time.perf_counter() - start:.1f} s",
                 file=sys.stderr,
                 flush=True,
             )
-    flat = {key: np.concatenate([o[key] for o in outs])[:n_runs] for key in outs[0]}
-    grid = {key: val.reshape(n_rec, scales.size) for key, val in flat.items()}
     with np.errstate(over="ignore"):  # a huge scale may overflow to inf, as it does in the run
         pga_scaled = pga[:, None] * scales[None, :]
 
@@ -204,6 +211,7 @@ def ida(
         "name": ("record", names),
         "pga": ("record", pga, _attrs("peak ground acceleration of the record as run", "m/s^2")),
         "dt": ("record", np.array([r.dt for r in records], float), _attrs("record step", "s")),
+        "dt_step": ("record", dt_step, _attrs("solver step of the record's runs", "s")),
         "duration": (
             "record",
             np.array([r.duration for r in records], float),
@@ -226,9 +234,7 @@ def ida(
         "nu": float(block.nu),
         "gap": float(gap),
         "tail": float(tail),
-        "dt_record": dt_rec,
         "t_end": t_end,
-        "dt_step": dt_step,
         "rockjax_version": __version__,
         "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
     }
@@ -335,8 +341,20 @@ def _check_scales(scales) -> np.ndarray:
     return s
 
 
-def _stack_records(records, tail: float):
-    """Records on one step and length: ``(ag, ag_v or None, dt, pga)`` as NumPy arrays."""
+class _Group(NamedTuple):
+    """Records sharing one ``dt``: their indices in the input and their padded arrays."""
+
+    index: np.ndarray
+    dt: float
+    ag: jax.Array
+    ag_v: jax.Array | None
+
+
+def _group_records(records, tail: float):
+    """Records grouped by ``dt``, each zero-padded to ``t_end`` = the longest record + ``tail``.
+
+    Returns ``(groups, pga per record [m/s^2], t_end [s])``.
+    """
     if isinstance(records, GroundMotion) or not isinstance(records, Sequence) or not records:
         raise ValueError(
             "records must be a non-empty sequence of rockjax.GroundMotion, e.g. [gm1, gm2]; "
@@ -352,19 +370,31 @@ def _stack_records(records, tail: float):
             f"record names must be distinct (they label the Dataset); {dup} repeat. Rename "
             "with GroundMotion(ag=r.ag, dt=r.dt, name='...', ag_v=r.ag_v, meta=r.meta)."
         )
-    dt = min(r.dt for r in records)
-    same = [math.isclose(r.dt, dt, rel_tol=1e-9) for r in records]
-    records = [r if ok else r.resampled(dt) for r, ok in zip(records, same)]
-    check_positive("dt", dt, "s")
-    n_time = max(r.n for r in records) + int(math.floor(tail / dt + 1e-9))
-    ag = np.zeros((len(records), n_time))
-    with_v = any(r.ag_v is not None for r in records)
-    ag_v = np.zeros_like(ag) if with_v else None
-    for i, r in enumerate(records):
-        ag[i, : r.n] = np.asarray(r.ag, dtype=float)
-        if with_v and r.ag_v is not None:
-            ag_v[i, : r.n] = np.asarray(r.ag_v, dtype=float)
-    return ag, ag_v, float(dt), np.max(np.abs(ag), axis=1)
+    for r in records:
+        check_positive("dt", r.dt, "s")
+    t_end = max(r.duration for r in records) + tail
+    steps: list[float] = []
+    for r in records:
+        if not any(math.isclose(r.dt, d, rel_tol=1e-9) for d in steps):
+            steps.append(r.dt)
+    groups = []
+    for d in steps:
+        idx = np.array([i for i, r in enumerate(records) if math.isclose(r.dt, d, rel_tol=1e-9)])
+        n_time = int(math.floor(t_end / d + 1e-9)) + 1
+        ag = np.zeros((idx.size, n_time))
+        with_v = any(records[i].ag_v is not None for i in idx)
+        ag_v = np.zeros_like(ag) if with_v else None
+        for row, i in enumerate(idx):
+            r = records[i]
+            n = min(r.n, n_time)
+            ag[row, :n] = np.asarray(r.ag, dtype=float)[:n]
+            if with_v and r.ag_v is not None:
+                ag_v[row, :n] = np.asarray(r.ag_v, dtype=float)[:n]
+        groups.append(
+            _Group(idx, float(d), jnp.asarray(ag), None if ag_v is None else jnp.asarray(ag_v))
+        )
+    pga = np.array([float(np.max(np.abs(np.asarray(r.ag, float)))) for r in records])
+    return groups, pga, float(t_end)
 
 
 @eqx.filter_jit

@@ -271,6 +271,70 @@ def ground_motion(motion: GroundMotion, ax=None, *, in_g: bool = True, title: st
     return ax
 
 
+def calibration(fit, axes=None, *, title: str | None = None):
+    """A calibration (:func:`rockjax.fit_beta` or :func:`rockjax.fit_e`) in two panels.
+
+    Left: the free-rocking histories ``theta/eta`` against time of the DEM at the result and of
+    its Housner reference (the DEM alone for ``target="bounces"``, which has no reference run).
+    Right: the loss of every evaluation in ``fit.history`` against the fitted parameter
+    (``beta`` [s], or ``e`` [-] for ``fit_e``), on a log scale, coloured by evaluation order,
+    with the result marked.
+
+    Args:
+        fit: A :class:`rockjax.Calibration`.
+        axes: Two matplotlib ``Axes`` ``(histories, loss)`` to draw on; default a new figure.
+        title: Title of the history panel; default one naming the fitted values.
+
+    Returns:
+        The two ``Axes`` ``(histories, loss)``; the figure is ``axes[0].figure``.
+
+    Raises:
+        ValueError: If ``axes`` is not a pair of Axes.
+    """
+    if axes is None:
+        plt = _pyplot()
+        _, axes = plt.subplots(1, 2, figsize=(11.0, 4.0), width_ratios=[3, 2], layout="constrained")
+    axes = tuple(np.ravel(np.asarray(axes, dtype=object)))
+    if len(axes) != 2:
+        raise ValueError(f"axes must be two Axes (histories, loss); got {len(axes)}.")
+    ax_t, ax_l = axes
+    fitted_e = "e" in fit.history  # fit_e: the Housner e was fitted, beta given
+    runs = {f"DEM, beta = {fit.beta:.4g} s": fit.dem}
+    if fit.housner is not None:
+        runs[f"Housner, e = {fit.e:.4f}"] = fit.housner
+    if title is None:
+        title = (
+            f"fitted e = {fit.e:.4f} at beta = {fit.beta:.4g} s"
+            if fitted_e
+            else f"fitted beta = {fit.beta:.4g} s, DEM e_effective = {fit.e_effective:.4f}"
+        )
+    time_history(runs, ax=ax_t, title=title)
+
+    key = "e" if fitted_e else "beta"
+    x = np.asarray(fit.history[key], dtype=float)
+    y = np.asarray(fit.history["loss"], dtype=float)
+    n = min(x.size, y.size)
+    x, y = x[:n], y[:n]
+    ok = np.isfinite(x) & np.isfinite(y) & (y > 0)
+    if np.any(ok):
+        points = ax_l.scatter(
+            x[ok], y[ok], c=np.arange(n)[ok], cmap="viridis", s=18, zorder=2, label="evaluations"
+        )
+        ax_l.figure.colorbar(points, ax=ax_l, label="evaluation order [-]")
+        ax_l.set_yscale("log")
+    best = fit.e if fitted_e else fit.beta
+    unit = "" if fitted_e else " s"
+    ax_l.axvline(best, color="C3", ls="--", lw=1.0, label=f"result {key} = {best:.4g}{unit}")
+    ax_l.set_xlabel(
+        "Housner restitution e [-]" if fitted_e else r"stiffness-proportional damping $\beta$ [s]"
+    )
+    ax_l.set_ylabel("loss [-] (bounce log-energy gap$^2$)")
+    ax_l.set_title(f"{fit.method}: {fit.n_iterations} iterations, {fit.n_simulations} runs")
+    ax_l.grid(True, alpha=0.3)
+    ax_l.legend(loc="best", fontsize="small")
+    return ax_t, ax_l
+
+
 # ----------------------------------------------------------------------------- IDA and fragility
 
 _IM_LABELS = {"pga_scaled": "PGA", "scale": "scale factor"}

@@ -49,10 +49,13 @@ def test_seeded_default_fit_and_range(grid_fit):
 
 
 def test_unreachable_target_names_the_range():
-    with pytest.raises(ValueError, match=r"not reachable.*spans e = 0\.\d+ .* to 0\.99"):
+    with pytest.raises(ValueError, match=r"not reachable.*spans e = 0\.\d+ .* to (0\.99|1\.00)"):
         rj.fit_beta(BLOCK, e=0.5)
     with pytest.raises(ValueError, match="not reachable"):
         rj.fit_beta(BLOCK, e=1.0)
+    # the clipped dashpot saturates near 0.97 (REFERENCES 3.5; docs/theory.md)
+    with pytest.raises(ValueError, match=r"spans e = 0\.9[67]\d+ .*clipped.*saturates"):
+        rj.fit_beta(BLOCK, e=0.95, dashpot="clipped")
 
 
 def test_bad_input():

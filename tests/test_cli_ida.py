@@ -70,7 +70,7 @@ def test_dem_writes_netcdf_and_summary(dem_run):
     assert f"collapsed: {int(collapse.sum())}" in stdout
     lowest = np.asarray(rj.collapse_intervals(ds).lowest)
     assert f"min {np.min(lowest):.4g}, median {np.median(lowest):.4g}" in stdout
-    assert "rockjax.ida: chunk 1/1, 6/6 runs" in stderr
+    assert "rockjax.ida: chunk 1/1 (dt = 0.01 s), 6/6 runs" in stderr
 
 
 def test_housner_chunks_and_e(at2_files, tmp_path):

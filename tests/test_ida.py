@@ -18,7 +18,7 @@ SCALES = np.array([0.3, 0.9, 1.5, 2.1])
 
 
 def _records():
-    """Two short pulses of different dt and length (so ida pads and resamples)."""
+    """Two short pulses of different dt and length (so ida pads and groups by dt)."""
     return [
         rj.GroundMotion.sine_cycle(3.0, 0.5, dt=0.01, duration=1.5, name="sine"),
         rj.GroundMotion.ricker(3.0, 0.4, dt=0.005, duration=1.2, name="ricker").with_metadata(
@@ -42,12 +42,11 @@ def housner_ds():
 
 
 def _single(model, block, ds):
-    """Reference: a Python loop of single simulate_* runs on the records as ida prepares them."""
-    dt = float(ds.attrs["dt_record"])
+    """Reference: a Python loop of single simulate_* runs, each record on its own dt, for the
+    Dataset's run length."""
     t_end = float(ds.attrs["t_end"])
     out = {k: np.zeros((2, SCALES.size)) for k in ("d", "th", "col", "st")}
     for i, rec in enumerate(_records()):
-        rec = rec if rec.dt == dt else rec.resampled(dt)
         for j, s in enumerate(SCALES):
             if model == "dem":
                 r = rj.simulate_dem(
@@ -92,11 +91,12 @@ def test_dataset_layout(dem_ds):
     np.testing.assert_array_equal(dem_ds["dt"], [0.01, 0.005])
     np.testing.assert_array_equal(dem_ds["duration"], [r.duration for r in recs])
     assert list(dem_ds["meta_event"].values) == ["", "synthetic"]
-    assert dem_ds.attrs["dt_record"] == 0.005
+    assert dem_ds.attrs["t_end"] == pytest.approx(1.5 + 0.5, rel=1e-12)
     assert dem_ds.attrs["beta"] == BETA and dem_ds.attrs["model"] == "dem"
-    single = rj.simulate_dem(rj.Block(**SMALL), recs[1], beta=BETA)  # on the common dt
-    assert dem_ds.attrs["dt_step"] == pytest.approx(float(single.extras["dt"]), rel=1e-14)
-    # pga of the record as run: the sine resampled from 0.01 s onto 0.005 s keeps its samples
+    for i, rec in enumerate(recs):  # each record runs on its own dt, as a single run would
+        single = rj.simulate_dem(rj.Block(**SMALL), rec, beta=BETA)
+        assert float(dem_ds["dt_step"][i]) == pytest.approx(float(single.extras["dt"]), rel=1e-14)
+    # pga of the record as run
     np.testing.assert_allclose(dem_ds["pga"], [float(r.pga) for r in recs], rtol=1e-15)
     np.testing.assert_allclose(
         dem_ds["pga_scaled"], dem_ds["pga"].values[:, None] * SCALES[None, :], rtol=1e-15

@@ -1,0 +1,112 @@
+"""`rockjax calibrate` end to end on the paper's 0.25 x 3 m parapet: the issue's command fits a
+beta inside the reachable range whose DEM restitution matches the target, writes the figure and
+a plain JSON, and an unreachable target is one `error: ...` line naming the range, exit 2.
+
+One geometry and one release for every run here, so the DEM compiles once for the module.
+"""
+
+import contextlib
+import io
+import json
+import re
+
+import numpy as np
+import pytest
+
+import rockjax as rj
+from rockjax.cli import main
+
+E_TARGET = 0.975
+E_TOL = 2e-3  # the DEM's effective e against the target (the fit reaches ~1e-4)
+
+
+def _run(argv):
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        try:
+            rc = main([str(a) for a in argv])
+        except SystemExit as exit_:  # argparse
+            rc = exit_.code
+    return rc, stdout.getvalue(), stderr.getvalue()
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    out = tmp_path_factory.mktemp("calibrate") / "out"
+    rc, stdout, stderr = _run(["calibrate", "--b", 0.25, "--h", 3, "--e", E_TARGET, "--out", out])
+    return rc, out, stdout, stderr
+
+
+def test_calibrate_fits_beta_and_writes_json_and_figure(calibrated):
+    rc, out, stdout, stderr = calibrated
+    assert rc == 0, stderr
+    assert sorted(p.name for p in out.iterdir()) == ["calibration.json", "calibration.png"]
+    assert (out / "calibration.png").stat().st_size > 10_000
+    with open(out / "calibration.json") as f:
+        res = json.load(f)
+    parapet = rj.Block(b=0.25, h=3.0)
+    assert res["block"]["b_m"] == 0.25 and res["block"]["h_m"] == 3.0
+    assert res["mode"] == "two_sided" and res["target"] == "e" and res["method"] == "lbfgs"
+    assert res["e_target"] == pytest.approx(E_TARGET)
+    e_lo, e_hi = res["e_range"]
+    assert e_lo < E_TARGET < e_hi
+    assert 0.0 < res["beta_s"] <= res["beta_max_s"]
+    np.testing.assert_allclose(res["beta_max_s"], 2.0 * float(rj.beta_dejong(parapet)))
+    np.testing.assert_allclose(
+        res["beta_over_beta_dejong"], res["beta_s"] / float(rj.beta_dejong(parapet))
+    )
+    assert abs(res["e_effective"] - E_TARGET) < E_TOL
+    assert len(res["e_exp"]) == 3 and all(abs(v - E_TARGET) < 5 * E_TOL for v in res["e_exp"])
+    assert res["converged"] is True and res["dem_status"] == 0
+    assert res["n_simulations"] >= res["n_iterations"] >= 1
+    assert len(res["history"]["beta"]) == len(res["history"]["loss"]) >= 2
+    assert res["loss"] < 1e-4 and res["seconds"] > 0
+    assert res["command"].startswith("rockjax calibrate --b 0.25 --h 3 --e 0.975")
+    # the printout gives beta in s and in beta_DeJong, e_effective and the reachable range
+    beta_line = re.search(r"beta\s+= (\S+) s\s+\((\S+) beta_DeJong\)", stdout)
+    assert beta_line and float(beta_line[1]) == pytest.approx(res["beta_s"], rel=1e-5)
+    assert f"e_effective  = {res['e_effective']:.5f}" in stdout
+    assert f"reachable e  = {e_lo:.4f}" in stdout
+
+
+def test_unreachable_e_is_one_error_line_naming_the_range(tmp_path):
+    out = tmp_path / "out"
+    rc, stdout, stderr = _run(["calibrate", "--b", 0.25, "--h", 3, "--e", 0.5, "--out", out])
+    assert rc == 2
+    assert stderr.startswith("error: ") and stderr.count("\n") == 1
+    assert "not reachable" in stderr
+    assert re.search(r"spans e = 0\.\d+ \(beta_max\) to [01]\.\d+ \(beta = 0", stderr)
+    assert "Traceback" not in stderr
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["--theta0", "1.2"], "--theta0"),
+        (["--e", "1.5"], "--e (restitution"),
+        (["--target", "bounces", "--mode", "two_sided"], "--mode one_sided"),
+        (["--target", "bounces", "--e", "0.9"], "takes no --e"),
+        (["--b", "-1"], "b must be a positive"),
+    ],
+)
+def test_bad_input_exits_2_before_any_run(tmp_path, args, match):
+    argv = ["calibrate", "--b", 0.25, "--h", 3, "--out", tmp_path / "out", *args]
+    rc, _, stderr = _run(argv)
+    assert rc == 2
+    assert stderr.startswith("error: ") and match in stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_b_and_h_are_required():
+    rc, _, stderr = _run(["calibrate", "--b", 0.25])
+    assert rc == 2 and "--h" in stderr
+
+
+def test_help_lists_every_option():
+    rc, stdout, _ = _run(["calibrate", "--help"])
+    assert rc == 0
+    for flag in ("--b", "--h", "--e", "--mode", "--target", "--theta0", "--E", "--rho"):
+        assert flag in stdout
+    assert "--beta-max" in stdout and "--method" in stdout and "calibration_out" in stdout
+    assert "%%" not in stdout
