@@ -1002,37 +1002,8 @@ class HistoryFit:
     dem: Response
 
 
-def fit_history(
-    block: Block,
-    measured: Response,
-    *,
-    beta0: float | None = None,
-    mode: str = "two_sided",
-    n_bounces: int = 8,
-    rtol: float = 1e-5,
-    max_iter: int = 50,
-) -> HistoryFit:
-    """Fit two DEM parameters at once, ``beta`` and the rocking width ``b``, to a measured
-    free-rocking history (released from rest at ``measured.theta[0]``).
-
-    The loss compares the bounce peaks bounce by bounce: the gap of ``log |theta_k|`` (the energy
-    lost per impact, set mostly by ``beta``) plus the gap of the peak times over the first
-    impact time (the rocking period, set by ``b`` through ``eta`` and ``p``), weights as in
-    :func:`rockjax.metrics.peak_loss`. Unknowns are scaled as ``beta = beta0 exp(u0)`` and
-    ``b = b_nominal exp(u1)``; L-BFGS with forward-mode derivatives (two tangents). A dense
-    grid over two parameters costs ``n^2`` runs; this takes tens.
-
-    Args:
-        block: The nominal block (its ``b`` is the start; ``h``, ``rho``, ``E`` are kept).
-        measured: The measured response (uniform samples; e.g. a test record as a Response).
-        beta0: Starting ``beta`` [s] (default ``0.3 beta_DeJong``).
-        mode: ``"two_sided"`` or ``"one_sided"``.
-        n_bounces: Bounces compared.
-
-    Returns:
-        A :class:`HistoryFit`.
-    """
-    t_start = time.perf_counter()
+def _history_problem(block, measured, beta0, mode, n_bounces) -> _HProblem:
+    """Checks and set-up of :func:`fit_history` (also used to map its loss on a grid)."""
     check_choice("mode", mode, MODES)
     block = _concrete_block(block)
     t = np.asarray(measured.t, float)
@@ -1067,6 +1038,44 @@ def fit_history(
         dt=float(dt),
         hysteresis=hyst,
     )
+    return problem
+
+
+def fit_history(
+    block: Block,
+    measured: Response,
+    *,
+    beta0: float | None = None,
+    mode: str = "two_sided",
+    n_bounces: int = 8,
+    rtol: float = 1e-5,
+    max_iter: int = 50,
+) -> HistoryFit:
+    """Fit two DEM parameters at once, ``beta`` and the rocking width ``b``, to a measured
+    free-rocking history (released from rest at ``measured.theta[0]``).
+
+    The loss compares the bounce peaks bounce by bounce: the gap of ``log |theta_k|`` (the energy
+    lost per impact, set mostly by ``beta``) plus the gap of the peak times over the first
+    impact time (the rocking period, set by ``b`` through ``eta`` and ``p``), weights as in
+    :func:`rockjax.metrics.peak_loss`. Unknowns are scaled as ``beta = beta0 exp(u0)`` and
+    ``b = b_nominal exp(u1)``; L-BFGS with forward-mode derivatives (two tangents). A dense
+    grid over two parameters costs ``n^2`` runs; this takes tens.
+
+    Args:
+        block: The nominal block (its ``b`` is the start; ``h``, ``rho``, ``E`` are kept).
+        measured: The measured response (uniform samples; e.g. a test record as a Response).
+        beta0: Starting ``beta`` [s] (default ``0.3 beta_DeJong``).
+        mode: ``"two_sided"`` or ``"one_sided"``.
+        n_bounces: Bounces compared.
+
+    Returns:
+        A :class:`HistoryFit`.
+    """
+    t_start = time.perf_counter()
+    problem = _history_problem(block, measured, beta0, mode, n_bounces)
+    block, theta0 = problem.block, float(problem.theta0)
+    t = np.asarray(measured.t, float)
+    save_dt = problem.save_dt
     u, hist_raw, n_sims, n_iter, converged = _minimize(
         _h_loss,
         problem,
