@@ -37,6 +37,7 @@ jax.config.update("jax_enable_x64", True)
 from . import calibration as calibration  # noqa: E402
 from . import metrics as metrics  # noqa: E402
 from . import plot as plot  # noqa: E402  (matplotlib is imported lazily inside)
+from . import pulses as pulses  # noqa: E402
 from . import records as records  # noqa: E402
 from . import relations as relations  # noqa: E402
 from .block import Block as Block  # noqa: E402
@@ -52,6 +53,7 @@ from .housner import simulate_housner as simulate_housner  # noqa: E402
 from .ida import collapse_intervals as collapse_intervals  # noqa: E402
 from .ida import ida as ida  # noqa: E402
 from .motion import GroundMotion as GroundMotion  # noqa: E402
+from .pulses import identify_pulse as identify_pulse  # noqa: E402
 from .records import read_at2 as read_at2  # noqa: E402
 from .records import read_csv as read_csv  # noqa: E402
 from .records import write_at2 as write_at2  # noqa: E402
@@ -84,10 +86,12 @@ __all__ = [
     "fit_history",
     "fragility",
     "ida",
+    "identify_pulse",
     "metrics",
     "omega_crit",
     "omega_hcrit",
     "plot",
+    "pulses",
     "read_at2",
     "read_csv",
     "records",
