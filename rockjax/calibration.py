@@ -71,7 +71,11 @@ class Calibration:
             per impact over the compared bounces (least squares on ``log U_k``), from peaks
             found in NumPy on the saved history [-].
         e_exp: Eq. (6) of the DEM's bounces 1-3 [-] (first release amplitude).
-        loss: Final loss [-] (``peak_loss``: ``~ (log e_DEM - log e)^2``).
+        loss: Final loss [-]: ``fit_beta`` with ``target="e"``: the squared signed gap
+            ``(log e_DEM - log e)^2`` (least squares over the compared bounces); ``"bounces"``:
+            the mean square log gap of ``e_exp,1-3``; ``fit_e``: the peak loss.
+        peak_loss: The bounce-by-bounce mismatch :func:`rockjax.metrics.peak_loss` [-] (what a
+            single ``beta`` cannot remove: the DEM's amplitude dependence of ``e``).
         history_error: The paper's weighted-mean history error of the DEM against Housner,
             up to the last compared bounce [-] (None for ``target="bounces"``).
         history: Per iteration: ``"beta"`` [s] and ``"loss"`` [-] (NumPy arrays).
@@ -91,6 +95,7 @@ class Calibration:
     e_effective: float
     e_exp: np.ndarray
     loss: float
+    peak_loss: float
     history_error: float | None
     history: dict
     n_simulations: int
@@ -167,18 +172,29 @@ def _bounce_log_e(problem: _Problem, pk: metrics.Peaks):
 
 
 def _stats(problem: _Problem, beta):
-    """(loss, signed gap, the DEM's own log e) at ``beta``; NaN when a run failed."""
+    """``(loss, signed gap, the DEM's own log e, peak loss)`` at ``beta``; NaN if a run failed.
+
+    ``target="e"``: the gap is :func:`rockjax.metrics.log_e_gap` (the least-squares
+    ``log e_DEM - log e`` over the compared bounces, averaged over the releases) and the loss is
+    its square, zero exactly where the DEM's restitution equals the target. The full
+    bounce-by-bounce mismatch :func:`rockjax.metrics.peak_loss` is returned beside it: what is
+    left of it at the optimum is the DEM's amplitude dependence of ``e``, which no single
+    ``beta`` removes. ``target="bounces"``: the loss is the mean square of the three
+    ``log e_exp,n - log target_n`` and the gap their mean.
+    """
     pk, status = _dem_peaks(problem, beta)
     if problem.kind == "e":
-        loss = jax.vmap(metrics.peak_loss)(pk, problem.ref)
-        gap = jax.vmap(metrics.log_e_gap)(pk, problem.ref)
+        gap = jnp.mean(jax.vmap(metrics.log_e_gap)(pk, problem.ref))
+        shape = jnp.mean(jax.vmap(metrics.peak_loss)(pk, problem.ref))
+        loss = gap * gap
     else:
         d = _bounce_log_e(problem, pk) - jnp.log(problem.targets)[None, :]
-        loss = jnp.mean(d * d, axis=-1)
-        gap = jnp.mean(d, axis=-1)
+        loss = jnp.mean(d * d)
+        gap = jnp.mean(d)
+        shape = loss
     own = jnp.mean(jax.vmap(metrics.log_e_fit)(pk))  # the DEM's own log e, target-free
     bad = jnp.any(status != STATUS_OK)
-    return tuple(jnp.where(bad, jnp.nan, jnp.mean(x)) for x in (loss, gap, own))
+    return tuple(jnp.where(bad, jnp.nan, x) for x in (loss, gap, own, shape))
 
 
 @eqx.filter_jit
@@ -197,11 +213,28 @@ def _loss_u(u, problem: _Problem):
 
 @_loss_u.def_fwd
 def _loss_u_fwd(perturbed, u, problem):
-    # forward mode: one tangent, no reverse pass through the long scan
-    val, dval = jax.jvp(
-        lambda v: _stats(problem, _beta_of_u(problem, v))[0], (u,), (jnp.ones_like(u),)
-    )
-    return val, dval
+    # Forward mode: one tangent, no reverse pass through the long scan. The derivative is
+    # that of the signed gap (the loss is its square, or for "bounces" built from it), checked
+    # against the monotone trend: where contacts chatter (squat blocks) the local derivative
+    # of a DEM history is exact but says nothing about the trend (it flips sign or is off by
+    # orders of magnitude from one beta to the next), so a gap slope of the wrong sign, or
+    # more than 10x off the secant slope of the endpoint scan, is replaced by that secant.
+    def f(v):
+        loss, gap, _, _ = _stats(problem, _beta_of_u(problem, v))
+        return loss, gap
+
+    (loss, gap), (dloss, dgap) = jax.jvp(f, (u,), (jnp.ones_like(u),))
+    # the trend in u: u = S beta so d(gap)/du ~ -dbeta/du * S (tanh bound, reflection at 0)
+    w = jnp.abs(u) / (problem.scale * problem.beta_cap)
+    trend = -jnp.sign(u) / jnp.cosh(w) ** 2
+    ratio = dgap / jnp.where(trend == 0, 1.0, trend)
+    sane = (ratio > 0.1) & (ratio < 10.0)
+    dgap_used = jnp.where(sane, dgap, trend)
+    if problem.kind == "e":
+        dval = 2.0 * gap * dgap_used
+    else:  # mean square of the bounce gaps: keep its own derivative when the gap's is sane
+        dval = jnp.where(sane, dloss, 2.0 * gap * trend)
+    return loss, dval
 
 
 @_loss_u.def_bwd
@@ -490,7 +523,7 @@ def fit_beta(
         scan = np.linspace(0.0, bmax, max(2, n_seed))
     else:
         scan = np.array([0.0, bmax])
-    loss_s, gap_s, own_s = map(np.asarray, _stats_batch(problem, jnp.asarray(scan)))
+    loss_s, gap_s, own_s, _ = map(np.asarray, _stats_batch(problem, jnp.asarray(scan)))
     n_sims = scan.size
     e_range = (math.exp(float(own_s[-1])), math.exp(float(own_s[0])))
     _check_reachable(problem, float(gap_s[0]), float(gap_s[-1]), bmax, e_range)
@@ -516,7 +549,9 @@ def fit_beta(
             raise ValueError(
                 f"beta0 must lie in [0, {float(problem.beta_cap):.4g}] s; got {beta0}."
             )
-        u0 = max(float(beta0), 1e-4 * bmax) * slope
+        # the inverse of beta(u) = beta_cap tanh(|u| / (S beta_cap))
+        cap = float(problem.beta_cap)
+        u0 = slope * cap * math.atanh(min(max(float(beta0), 1e-4 * bmax) / cap, 0.999))
         u, hist, n_add, n_iter, converged = _minimize(
             _loss_u, problem, u0, lambda v: (float(_beta_of_u(problem, v)),), rtol, max_iter
         )
@@ -579,7 +614,7 @@ def _illinois(problem, scan, gap_s, rtol, max_iter):
     c = a
     for n in range(1, max_iter + 1):
         c = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
-        lc, gc, _ = (float(np.asarray(x)[0]) for x in _stats_batch(problem, jnp.asarray([c])))
+        lc, gc, _, _ = (float(np.asarray(x)[0]) for x in _stats_batch(problem, jnp.asarray([c])))
         hb.append(c)
         hl.append(lc)
         if gc == 0.0 or abs(b - a) <= rtol * max(c, 1e-12):
@@ -628,7 +663,8 @@ def _finish(
         onset=problem.onset,
         save_dt=SAVE_DT,
     )
-    loss = float(np.asarray(_stats_batch(problem, jnp.asarray([beta]))[0])[0])
+    stats = _stats_batch(problem, jnp.asarray([beta]))
+    loss, peak = float(np.asarray(stats[0])[0]), float(np.asarray(stats[3])[0])
     e_eff = _e_effective_np(dem, problem.n_bounces, problem.mode)
     h_err = None
     e_val = None
@@ -644,6 +680,7 @@ def _finish(
         e_effective=e_eff,
         e_exp=_e_exp_np(dem, problem),
         loss=loss,
+        peak_loss=peak,
         history_error=h_err,
         history={"beta": np.asarray(hist_b), "loss": np.asarray(hist_l)},
         n_simulations=int(n_sims),
@@ -715,13 +752,17 @@ def e_effective(
 ) -> dict:
     """The DEM's restitution at each ``beta`` [s] (an array: one vmapped batch), from free rocking.
 
+    The time step is sized as in :func:`fit_beta` with the same ``beta_max`` (default
+    ``2 beta_DeJong``, raised to cover every ``beta`` given), so the two agree run for run.
+
     Returns a dict of NumPy arrays over ``beta``: ``"e"`` (least-squares restitution from the
-    bounce energies, the statistic :func:`fit_beta` matches), ``"e_exp"`` (Eq. 6 of bounces
-    1-3, shape ``(n_beta, 3)``, first release amplitude), ``"ok"`` (run status).
+    bounce energies, the statistic :func:`fit_beta` matches; NaN with no bounce), ``"e_exp"``
+    (Eq. 6 of bounces 1-3, shape ``(n_beta, 3)``, first release amplitude; NaN for a bounce that
+    did not happen), ``"ok"`` (run status).
     """
     betas = np.atleast_1d(np.asarray(beta, float))
     if beta_max is None:
-        beta_max = max(float(np.max(betas)), 1e-12) / 1.25 * 1.0000001
+        beta_max = 2.0 * float(beta_dejong(_concrete_block(block)))
     problem, _ = _make_problem(
         block,
         e=1.0,
@@ -748,7 +789,7 @@ def _e_batch(problem: _Problem, betas):
     def one(beta):
         pk, status = _dem_peaks(problem, beta)
         log_e = jnp.mean(jax.vmap(metrics.log_e_fit)(pk))
-        e3 = jnp.exp(_bounce_log_e(problem, pk))[0]
+        e3 = jnp.where(pk.valid[0, 1:4], jnp.exp(_bounce_log_e(problem, pk))[0], jnp.nan)
         return log_e, e3, jnp.all(status == STATUS_OK)
 
     return jax.vmap(one)(betas)
@@ -888,6 +929,7 @@ def fit_e(
         e_effective=_e_effective_np(dem, problem.n_bounces, mode),
         e_exp=_e_exp_np(dem, problem),
         loss=float(_housner_loss(v, eproblem)),
+        peak_loss=float(_housner_loss(v, eproblem)),
         history_error=float(metrics.history_error(dem.theta, housner.theta, w)),
         history={"e": np.asarray(hist_e[1:]), "loss": np.asarray(hist_l)},
         n_simulations=n_sims,
