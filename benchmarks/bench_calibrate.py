@@ -99,6 +99,7 @@ def row(fit, kind, geo, e, beta0, bdj):
         "n_simulations": fit.n_simulations,
         "n_iterations": fit.n_iterations,
         "converged": fit.converged,
+        "root_finish": fit.root_finish,
         "seconds": fit.seconds,
         "e_range": list(fit.e_range),
     }
@@ -169,13 +170,14 @@ def main() -> None:
                     f"{r['rel_beta_err'] * 100:>9.3f}% {fit.e_effective:>8.5f} "
                     f"{fit.e_effective - e:>+9.2e} {fit.loss:>9.2e} {fit.history_error:>8.4f} "
                     f"{fit.n_simulations:>5} {fit.n_iterations:>4} {str(fit.converged):>5} "
-                    f"{fit.seconds:>6.2f}"
+                    f"{fit.seconds:>6.2f}{'  (root finish)' if fit.root_finish else ''}"
                 )
 
     print(f"\nSummary ({len(geos)} geometries x {len(tfr)} targets; lbfgs from {len(sfr)} starts)")
     print(
         f"  {'method':<6} {'fits':>5} {'worst dbeta/grid':>16} {'worst |e_eff-e|':>15} "
-        f"{'median s':>9} {'max s':>7} {'median sims':>11} {'max sims':>8} {'not conv.':>9}"
+        f"{'median s':>9} {'max s':>7} {'median sims':>11} {'max sims':>8} {'not conv.':>9} "
+        f"{'root finish':>11}"
     )
     summary = {}
     for kind in ("lbfgs", "grid", "root"):
@@ -189,12 +191,14 @@ def main() -> None:
             "median_sims": statistics.median(r["n_simulations"] for r in rs),
             "max_sims": max(r["n_simulations"] for r in rs),
             "not_converged": sum(not r["converged"] for r in rs),
+            "root_finish": sum(r["root_finish"] for r in rs),
         }
         summary[kind] = s
         print(
             f"  {kind:<6} {s['fits']:>5} {s['worst_rel_beta_err'] * 100:>15.3f}% "
             f"{s['worst_e_err']:>15.2e} {s['median_s']:>9.2f} {s['max_s']:>7.2f} "
-            f"{s['median_sims']:>11.0f} {s['max_sims']:>8} {s['not_converged']:>9}"
+            f"{s['median_sims']:>11.0f} {s['max_sims']:>8} {s['not_converged']:>9} "
+            f"{s['root_finish']:>11}"
         )
     lb = summary["lbfgs"]
     crit = {

@@ -55,6 +55,9 @@ BOUNCE_FRACTIONS = (0.68, 0.80, 1.00)
 from Sorrentino et al.'s tests)."""
 
 MIN_ENERGY_RATIO = 0.02
+GAP_TOL = 1e-4
+"""``fit_beta`` (``target="e"``): an L-BFGS result whose signed gap ``|log e_DEM - log e|``
+exceeds this is finished by false position on the bracketed gap."""
 SAVE_DT = 0.002
 """Output step of the calibration runs [s] (the peaks are refined between samples)."""
 
@@ -85,6 +88,8 @@ class Calibration:
         e_range: Reachable ``(e at beta_max, e at beta = 0)`` [-] (``fit_beta``).
         beta_max: Upper end of the searched range [s].
         method: ``"lbfgs"``, ``"grid"`` or ``"root"``.
+        root_finish: ``method="lbfgs"`` only: True when L-BFGS stopped with
+            ``|gap| > GAP_TOL`` and false position finished the fit (see :data:`GAP_TOL`).
         seconds: Wall time of the fit [s] (including compilation on a first call).
         dem: DEM response at the result (first release amplitude).
         housner: Housner reference (first release amplitude), or None.
@@ -107,6 +112,7 @@ class Calibration:
     seconds: float
     dem: Response
     housner: Response | None
+    root_finish: bool = False
 
     @property
     def e_target(self):
@@ -533,6 +539,7 @@ def fit_beta(
 
     converged = True
     n_iter = 0
+    root_finish = False
     if method == "grid":
         beta, n_add, grid, gl = _grid(problem, bmax, n_grid)
         n_sims += n_add
@@ -559,6 +566,28 @@ def fit_beta(
         hist_b += [p[0] for p, _ in hist]
         hist_l += [v for _, v in hist]
         beta = float(_beta_of_u(problem, u))
+        if problem.kind == "e":
+            # Where the DEM's contacts chatter (squat blocks at low beta) the derivative can
+            # mislead the line search into stopping on a flat step of the loss. The gap is
+            # monotone and bracketed, so finish by false position from the bracket that the
+            # scan and the last iterate give (usually no run: the fit is already there).
+            _, g_now, _, _ = (
+                float(np.asarray(x)[0]) for x in _stats_batch(problem, jnp.asarray([beta]))
+            )
+            n_sims += 1
+            root_finish = abs(g_now) > GAP_TOL
+            if root_finish:
+                lo = [(float(b), float(g)) for b, g in zip(scan, gap_s) if g >= 0] + [(beta, g_now)]
+                hi = [(float(b), float(g)) for b, g in zip(scan, gap_s) if g < 0] + [(beta, g_now)]
+                a = max((p for p in lo if p[1] >= 0), key=lambda p: p[0])
+                b = min((p for p in hi if p[1] < 0), key=lambda p: p[0])
+                beta, n_add, hb, hl, converged, n_more = _illinois(
+                    problem, np.array([a[0], b[0]]), np.array([a[1], b[1]]), rtol, max_iter
+                )
+                n_sims += n_add
+                n_iter += n_more
+                hist_b += hb
+                hist_l += hl
     return _finish(
         problem,
         beta,
@@ -572,6 +601,7 @@ def fit_beta(
         method,
         t_start,
         e_range,
+        root_finish,
     )
 
 
@@ -649,6 +679,7 @@ def _finish(
     method,
     t_start,
     e_range,
+    root_finish=False,
 ):
     th0 = float(problem.theta0[0])
     dem = simulate_dem(
@@ -690,6 +721,7 @@ def _finish(
         beta_max=bmax,
         method=method,
         seconds=time.perf_counter() - t_start,
+        root_finish=bool(root_finish),
         dem=dem,
         housner=housner,
     )

@@ -2,8 +2,10 @@
 
 ``rockjax demo [--out DIR] [--quick]`` runs the main job on built-in examples from the paper
 (Galvez et al., Sect. 2): free rocking of a parapet with DEM and Housner, a one-sided facade,
-a Ricker pulse, and the DEM ``e(beta)`` sweep behind Eq. (3). It writes figures (PNG), time
-histories (CSV) and ``results.json`` into ``DIR`` and prints a summary.
+a Ricker pulse, the DEM ``e(beta)`` sweep behind Eq. (3), a calibration of ``beta`` to ``e_H``
+by gradient descent, and a small IDA under analytic pulses with both models. It writes figures
+(PNG), time histories (CSV), IDA Datasets (NetCDF) and ``results.json`` into ``DIR`` and prints
+a summary.
 
 ``rockjax ida --records nearfield|farfield|...|FILE.AT2... --out ida.nc`` runs an incremental
 dynamic analysis (:func:`rockjax.ida`) of one block under FEMA P695 record sets
@@ -38,9 +40,11 @@ import numpy as np
 
 from . import __version__, plot
 from .block import Block
+from .calibration import fit_beta
 from .constants import G
 from .dem import simulate_dem, stable_dt
 from .housner import simulate_housner
+from .ida import ida
 from .motion import GroundMotion
 from .relations import beta_dejong, beta_isr, e_housner, e_isr, free_rocking_period
 from .response import STATUS_MESSAGES, Response
@@ -188,7 +192,7 @@ def _demo(args: argparse.Namespace) -> int:
     wall: dict[str, float] = {}
 
     # (a) parapet free rocking -----------------------------------------------------------
-    print(f"[1/4] parapet free rocking from {RELEASE:g} eta ({duration:g} s)", flush=True)
+    print(f"[1/6] parapet free rocking from {RELEASE:g} eta ({duration:g} s)", flush=True)
 
     def dem_free(beta, dashpot="closed"):
         return simulate_dem(
@@ -227,7 +231,7 @@ def _demo(args: argparse.Namespace) -> int:
     e_1sr = abs(float(e_isr(facade)))
     beta_f = float(beta_isr(facade))
     print(
-        f"[2/4] facade {FACADE_B:g} x {FACADE_H:g} m one-sided free rocking from {RELEASE:g} eta "
+        f"[2/6] facade {FACADE_B:g} x {FACADE_H:g} m one-sided free rocking from {RELEASE:g} eta "
         f"(gap {FACADE_GAP * 1e3:g} mm)",
         flush=True,
     )
@@ -276,7 +280,7 @@ def _demo(args: argparse.Namespace) -> int:
         name=f"Ricker pulse, pga {RICKER_PGA / G:.2f} g, T = {RICKER_PERIOD:g} s",
     )
     print(
-        f"[3/4] Ricker pulse on the parapet: pga = {RICKER_PGA:g} m/s^2 "
+        f"[3/6] Ricker pulse on the parapet: pga = {RICKER_PGA:g} m/s^2 "
         f"({RICKER_PGA / G:.2f} g), T = {RICKER_PERIOD:g} s",
         flush=True,
     )
@@ -309,7 +313,7 @@ def _demo(args: argparse.Namespace) -> int:
     # (d) e(beta) sweep --------------------------------------------------------------------
     dashpots = ("closed",) if args.quick else ("closed", "clipped")
     print(
-        f"[4/4] DEM e(beta) sweep: {betas.size} values of beta in [0, {BETA_MAX_RATIO:g} "
+        f"[4/6] DEM e(beta) sweep: {betas.size} values of beta in [0, {BETA_MAX_RATIO:g} "
         f"beta_DeJong], dashpot {' and '.join(dashpots)}",
         flush=True,
     )
@@ -342,10 +346,66 @@ def _demo(args: argparse.Namespace) -> int:
         "e_exp_mean": {d: _nanmean_rows(v) for d, v in sweep.items()},
     }
 
+    # (e) beta calibration by gradient descent ---------------------------------------------
+    print(
+        f"[5/6] calibrate beta to e_H = {e_h:.4f} by gradient descent (rj.fit_beta, L-BFGS)",
+        flush=True,
+    )
+    t0 = time.perf_counter()
+    fit = fit_beta(parapet, e=e_h, theta0=theta0)
+    wall["calibration"] = time.perf_counter() - t0
+    print(
+        f"      beta = {fit.beta:.4g} s ({fit.beta / b_dj:.3f} beta_DeJong), DEM e = "
+        f"{fit.e_effective:.4f}, {fit.n_iterations} iterations, {fit.n_simulations} DEM runs, "
+        f"{_fmt_s(wall['calibration'])} (with compilation)",
+        flush=True,
+    )
+    results["calibration"] = {
+        "target_e": e_h,
+        "beta_s": fit.beta,
+        "beta_over_beta_dejong": fit.beta / b_dj,
+        "e_effective": fit.e_effective,
+        "e_range": fit.e_range,
+        "loss": fit.loss,
+        "history_error": fit.history_error,
+        "n_iterations": fit.n_iterations,
+        "n_simulations": fit.n_simulations,
+        "converged": fit.converged,
+        "wall_s": wall["calibration"],
+    }
+
+    # (f) IDA under analytic pulses ---------------------------------------------------------
+    records = _demo_pulses(args.quick)
+    scales = np.linspace(0.1, 2.0, 8 if args.quick else 20)
+    print(
+        f"[6/6] IDA of the parapet under {len(records)} pulses x {scales.size} scales, Housner "
+        f"(e_H) and DEM (beta = {fit.beta:.3g} s, the calibrated one)",
+        flush=True,
+    )
+    t0 = time.perf_counter()
+    ds_h = ida(parapet, records, scales, model="housner", e=e_h, tail=2.0, progress=False)
+    ds_d = ida(parapet, records, scales, model="dem", beta=fit.beta, tail=2.0, progress=False)
+    wall["ida"] = time.perf_counter() - t0
+    results["ida"] = {
+        "records": [r.name for r in records],
+        "scales": scales,
+        "pga_m_s2": [float(r.pga) for r in records],
+        "housner_collapse_fraction": float(ds_h["collapse"].mean()),
+        "dem_collapse_fraction": float(ds_d["collapse"].mean()),
+        "wall_s": wall["ida"],
+    }
+    print(
+        f"      collapsed runs: Housner {int(ds_h['collapse'].sum())}, DEM "
+        f"{int(ds_d['collapse'].sum())} of {ds_h['collapse'].size}   "
+        f"({_fmt_s(wall['ida'])})",
+        flush=True,
+    )
+
     # outputs ------------------------------------------------------------------------------
     t_io = time.perf_counter()
     files = _write_outputs(out, parapet, facade, gm, free_a, runs_a, free_b, runs_b, pulse, runs_c)
     files += _write_sweep(out, betas, b_dj, e_h, sweep)
+    files += _write_calibration_and_ida(out, fit, ds_h, ds_d)
     wall["figures_and_files"] = time.perf_counter() - t_io
     wall["total"] = time.perf_counter() - t_start
     results["wall_s"] = wall
@@ -364,6 +424,35 @@ def _demo(args: argparse.Namespace) -> int:
     for line in bad:
         print(f"warning: {line}", file=sys.stderr)
     return 0
+
+
+def _demo_pulses(quick: bool) -> list[GroundMotion]:
+    """The demo's embedded records: symmetric and antisymmetric Ricker and one-sine pulses of
+    0.5 g at two periods (one in quick mode), 8 s long at 0.005 s."""
+    periods = (0.5,) if quick else (0.5, 1.0)
+    out = []
+    for T in periods:
+        kw = dict(dt=DT_OUT, duration=8.0)
+        out.append(GroundMotion.ricker(0.5 * G, T, t0=1.5 * T, name=f"MH_T{T:g}s", **kw))
+        out.append(
+            GroundMotion.ricker_antisymmetric(0.5 * G, T, t0=1.5 * T, name=f"AR_T{T:g}s", **kw)
+        )
+        out.append(GroundMotion.sine_cycle(0.5 * G, T, t0=0.5, name=f"SC_T{T:g}s", **kw))
+    return out
+
+
+def _write_calibration_and_ida(out: Path, fit, ds_h, ds_d) -> list[str]:
+    files = []
+    axes = plot.calibration(fit)
+    files.append(_save(axes[0], out / "calibration.png"))
+    for name, ds in (("housner", ds_h), ("dem", ds_d)):
+        path = out / f"ida_pulses_{name}.nc"
+        ds.to_netcdf(path)
+        files.append(path.name)
+        ax = plot.ida(ds)
+        ax.set_title(f"IDA under pulses, {name.upper() if name == 'dem' else 'Housner'}")
+        files.append(_save(ax, out / f"ida_pulses_{name}.png"))
+    return files
 
 
 def _fmt_s(seconds: float) -> str:
