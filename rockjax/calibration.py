@@ -44,7 +44,7 @@ from ._checks import check_choice
 from .block import Block
 from .dem import simulate_dem, stable_dt
 from .housner import simulate_housner
-from .relations import beta_dejong, e_isr, free_rocking_period
+from .relations import beta_dejong, beta_hcrit, e_isr, free_rocking_period
 from .response import STATUS_OK, Response, e_exp
 
 MODES = ("two_sided", "one_sided")
@@ -351,6 +351,20 @@ def _duration(block: Block, theta0: np.ndarray, n_bounces: int) -> float:
     return math.ceil(2.0 * (n_bounces + 2) * 0.5 * t_full) / 2.0
 
 
+FACADE_BETA_MAX_HCRIT = 8.0
+"""Default ``beta_max`` of a facade (``mode="one_sided"``) in units of ``beta_Hcrit`` (the
+paper's lower bound from ``omega_Hcrit``): this DEM's facade bounces vanish by 2-8
+``beta_Hcrit`` and its best fits lie at 0.5-6 ``beta_Hcrit`` (calibrate/REPORT.md), far below
+``beta_DeJong``."""
+
+
+def _default_beta_max(block: Block, mode: str) -> float:
+    """``2 beta_DeJong`` for parapets; ``FACADE_BETA_MAX_HCRIT beta_Hcrit`` for facades [s]."""
+    if mode == "one_sided":
+        return FACADE_BETA_MAX_HCRIT * float(beta_hcrit(block))
+    return 2.0 * float(beta_dejong(block))
+
+
 def _hysteresis(mode):
     return metrics.HYSTERESIS if mode == "two_sided" else 0.1 * metrics.HYSTERESIS
 
@@ -389,7 +403,7 @@ def _make_problem(
             "target='bounces' for a facade."
         )
     if beta_max is None:
-        beta_max = 2.0 * float(beta_dejong(block))
+        beta_max = _default_beta_max(block, mode)
     if not (np.isfinite(beta_max) and beta_max > 0):
         raise ValueError(f"beta_max must be a positive damping coefficient in s; got {beta_max}.")
     beta_cap = 1.25 * float(beta_max)
@@ -496,7 +510,8 @@ def fit_beta(
         theta0: Release rotation(s) [rad] (default ``0.5 eta``); several are averaged.
         n_bounces: Impacts compared (default 8 two-sided, 3 one-sided).
         beta0: Starting ``beta`` [s]; default: seeded by a vmapped scan of ``n_seed`` values.
-        beta_max: Upper end of the search [s] (default ``2 beta_DeJong``).
+        beta_max: Upper end of the search [s] (default ``2 beta_DeJong``; facades
+            ``8 beta_Hcrit``, see :data:`FACADE_BETA_MAX_HCRIT`).
         method: ``"lbfgs"`` (gradient, default), ``"grid"`` (``n_grid`` points) or ``"root"``.
         rtol: Stop when an iteration moves ``beta`` by less than ``rtol`` relative.
         max_iter: Iteration cap (L-BFGS or root find).
@@ -794,7 +809,7 @@ def e_effective(
     """
     betas = np.atleast_1d(np.asarray(beta, float))
     if beta_max is None:
-        beta_max = 2.0 * float(beta_dejong(_concrete_block(block)))
+        beta_max = _default_beta_max(_concrete_block(block), mode)
     problem, _ = _make_problem(
         block,
         e=1.0,
