@@ -24,10 +24,6 @@ RHO = 1800.0
 MIN_BOUNCE = 0.05
 """A first bounce counts as present when its ``e_exp`` is at least this [-] (below it the
 peak finder picks up residual contact vibration, not a rebound)."""
-NO_BOUNCE_ENERGY = 6e-4
-"""Bounce ``k`` counts as absent when ``e_exp^(2k)`` (its energy over the release energy) is
-below this [-]; the peak finder then returns an amplitude floor (energy ratio 5.3e-4:
-``e_exp`` = 0.0231, 0.152, 0.285 for bounces 1-3 in any geometry), reported here as NaN."""
 GAPS_M = (0.0, 0.0003, 0.001, 0.003, 0.004, 0.006)
 """Return-wall gaps [m] (the paper's 0, 0.3, 1, 3, 4, 6 mm)."""
 
@@ -57,16 +53,9 @@ def _block(b: float, ratio: float, E: float) -> rj.Block:
     return rj.Block(b=b, h=b * ratio, rho=RHO, E=E)
 
 
-def mask_no_bounce(e3) -> np.ndarray:
-    """``e_exp`` of bounces 1-3 [-] with absent bounces (see ``NO_BOUNCE_ENERGY``) set to NaN."""
-    e3 = np.asarray(e3, float)
-    k = np.arange(1, e3.size + 1)
-    with np.errstate(invalid="ignore"):
-        return np.where(e3 ** (2 * k) >= NO_BOUNCE_ENERGY, e3, np.nan)
-
-
 def scan(blk: rj.Block, factors) -> list[dict]:
-    """``e_exp`` of bounces 1-3 at ``beta = factors x beta_Hcrit`` [s]; one row per ``beta``."""
+    """``e_exp`` of bounces 1-3 at ``beta = factors x beta_Hcrit`` [s]; one row per ``beta``
+    (NaN where a bounce is absent, as :func:`rockjax.calibration.e_effective` reports it)."""
     bh = float(rj.beta_hcrit(blk))
     out = rj.calibration.e_effective(blk, bh * np.asarray(factors), mode="one_sided")
     return [
@@ -78,9 +67,7 @@ def scan(blk: rj.Block, factors) -> list[dict]:
             "e_exp3": float(e3[2]),
             "ok": bool(ok),
         }
-        for beta, e3, ok in zip(
-            out["beta"], map(mask_no_bounce, out["e_exp"]), out["ok"], strict=True
-        )
+        for beta, e3, ok in zip(out["beta"], out["e_exp"], out["ok"], strict=True)
     ]
 
 
@@ -109,7 +96,7 @@ def fit(blk: rj.Block, rows: list[dict], cfg: dict) -> dict:
         except ValueError as err:
             msg = str(err).replace("\n", " ")
             continue
-        e3 = mask_no_bounce(f.e_exp)
+        e3 = np.asarray(f.e_exp, float)
         pct = 100.0 * e3 / e_isr
         return {
             "beta_fit_s": f.beta,
@@ -139,13 +126,13 @@ def fit(blk: rj.Block, rows: list[dict], cfg: dict) -> dict:
     }
 
 
-def gap_ratios(blk: rj.Block, beta: float, gaps) -> list[dict]:
+def gap_ratios(blk: rj.Block, beta: float, gaps, beta_max: float) -> list[dict]:
     """``e_gap / e_0`` at ``beta`` [s] for each gap [m]: of bounce 1 and of the mean of 1-3
-    (NaN where a bounce is absent)."""
+    (NaN where a bounce is absent); ``beta_max`` [s] is the fit's, so the DEM step is the fit's."""
     res = []
     for g in gaps:
-        out = rj.calibration.e_effective(blk, [beta], mode="one_sided", gap=g, beta_max=beta)
-        res.append(mask_no_bounce(out["e_exp"][0]))
+        out = rj.calibration.e_effective(blk, [beta], mode="one_sided", gap=g, beta_max=beta_max)
+        res.append(np.asarray(out["e_exp"][0], float))
     e0 = res[0]
     return [
         {
@@ -265,7 +252,7 @@ def run(out: Path, quick: bool = False) -> dict:
         fits.append(f)
         if (b, r, E) in cfg["gap_geometries"] and np.isfinite(f["beta_fit_s"]):
             pick = ("b_m", "h_m", "h_over_b", "E_Pa", "beta_fit_s")
-            res = gap_ratios(_block(b, r, E), f["beta_fit_s"], cfg["gaps"])
+            res = gap_ratios(_block(b, r, E), f["beta_fit_s"], cfg["gaps"], f["beta_max_s"])
             gaps += [{**{k: f[k] for k in pick}, **g} for g in res]
         _write(out, scans, fits, gaps, cfg, progress)
         progress.step(f"b={b:g} m h/b={r:g} E={E / 1e9:g} GPa beta_fit={f['beta_fit_s']:.3g} s")
