@@ -1,9 +1,13 @@
 """Shared reference cases for the tests."""
 
+import contextlib
+import io
+
 import numpy as np
 from scipy.integrate import quad
 
 import rockjax as rj
+from rockjax.cli import main as cli_main
 
 PARAPET = dict(b=0.25, h=3.0)  # the paper's 3.00 x 0.250 m geometry
 SQUAT = dict(b=0.2, h=1.5)
@@ -38,3 +42,14 @@ def first_downcrossing(t, theta):
 
 def block(**kw):
     return rj.Block(**{**PARAPET, **kw})
+
+
+def run_cli(argv):
+    """Run the ``rockjax`` command in-process: ``(exit code, stdout, stderr)``."""
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        try:
+            rc = cli_main([str(a) for a in argv])
+        except SystemExit as exit_:  # argparse
+            rc = exit_.code
+    return rc, stdout.getvalue(), stderr.getvalue()

@@ -5,29 +5,20 @@ a plain JSON, and an unreachable target is one `error: ...` line naming the rang
 One geometry and one release for every run here, so the DEM compiles once for the module.
 """
 
-import contextlib
-import io
 import json
 import re
 
 import numpy as np
 import pytest
+from helpers import run_cli
 
 import rockjax as rj
-from rockjax.cli import main
 
 E_TARGET = 0.975
 E_TOL = 2e-3  # the DEM's effective e against the target (the fit reaches ~1e-4)
 
 
-def _run(argv):
-    stdout, stderr = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
-        try:
-            rc = main([str(a) for a in argv])
-        except SystemExit as exit_:  # argparse
-            rc = exit_.code
-    return rc, stdout.getvalue(), stderr.getvalue()
+_run = run_cli
 
 
 @pytest.fixture(scope="module")

@@ -2,28 +2,20 @@
 NetCDF that `rj.ida` returns, prints a summary, and rejects bad input with `error: ...`, exit 2.
 """
 
-import contextlib
 import importlib.util
-import io
 
 import numpy as np
 import pytest
 import xarray as xr
+from helpers import run_cli
 
 import rockjax as rj
-from rockjax.cli import _load_records, main
+from rockjax.cli import _load_records
 
 SCALES = "0.1,0.5,3"  # 0.1: the block does not even uplift; 3: both pulses overturn it
 
 
-def _run(argv):
-    stdout, stderr = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
-        try:
-            rc = main([str(a) for a in argv])
-        except SystemExit as exit_:  # argparse
-            rc = exit_.code
-    return rc, stdout.getvalue(), stderr.getvalue()
+_run = run_cli
 
 
 @pytest.fixture(scope="module")
