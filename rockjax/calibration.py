@@ -1040,10 +1040,9 @@ def _history_loss(u, problem: _HProblem):
     )
     pk = metrics.peaks(r.t, r.theta, blk.eta, problem.n_bounces, problem.mode, problem.hysteresis)
     ref = problem.measured
-    w, _ = metrics._bounce_weights(ref, MIN_ENERGY_RATIO)
-    d_amp = jnp.log(pk.amplitude) - jnp.log(ref.amplitude)
-    d_t = (pk.t - ref.t) / problem.t_scale
-    loss = jnp.sum(w * (d_amp**2 + d_t**2)) / jnp.maximum(jnp.sum(w), 1.0)
+    loss = metrics.amplitude_loss(pk, ref, MIN_ENERGY_RATIO) + metrics.timing_loss(
+        pk, ref, problem.t_scale, MIN_ENERGY_RATIO
+    )
     return jnp.where(r.status == STATUS_OK, loss, jnp.nan)
 
 

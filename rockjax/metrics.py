@@ -191,6 +191,14 @@ def peak_loss(sim: Peaks, ref: Peaks, min_energy_ratio: float = 0.02):
     return jnp.sum(w * d * d) / jnp.maximum(jnp.sum(w * 4 * k * k), 1.0)
 
 
+def amplitude_loss(sim: Peaks, ref: Peaks, min_energy_ratio: float = 0.02):
+    """Mean square gap of the bounce ``log |theta_k|`` [-] (weights of :func:`log_e_gap`; the
+    two responses may differ in ``eta``, e.g. when the block's width is fitted)."""
+    w, _ = _bounce_weights(ref, min_energy_ratio)
+    d = jnp.log(sim.amplitude) - jnp.log(ref.amplitude)
+    return jnp.sum(w * d * d) / jnp.maximum(jnp.sum(w), 1.0)
+
+
 def timing_loss(sim: Peaks, ref: Peaks, scale, min_energy_ratio: float = 0.02):
     """Mean square gap of the bounce peak times over ``scale**2`` [-] (phase, smoothly)."""
     w, _ = _bounce_weights(ref, min_energy_ratio)

@@ -105,3 +105,15 @@ def test_history_error():
 def test_bad_mode():
     with pytest.raises(ValueError, match="mode"):
         metrics.half_cycles(jnp.zeros(5), ETA, "three_sided")
+
+
+def test_amplitude_and_timing_losses():
+    """A signal scaled by s and delayed by tau: amplitude loss (log s)^2, timing loss
+    (tau / scale)^2, over the compared bounces (exact up to the parabola refinement)."""
+    t = np.arange(0, 6.0, 0.002)
+    amps = [0.05, 0.04, 0.03, 0.02, 0.015]
+    ref = metrics.peaks(t, _decaying(t + 0.5, amps, 1.0), ETA, 3)
+    sim = metrics.peaks(t, 1.1 * _decaying(t + 0.5, amps, 1.0), ETA, 3)
+    assert np.isclose(float(metrics.amplitude_loss(sim, ref)), np.log(1.1) ** 2, rtol=1e-6)
+    late = metrics.peaks(t, _decaying(t + 0.5 - 0.1, amps, 1.0), ETA, 3)
+    assert np.isclose(float(metrics.timing_loss(late, ref, 0.5)), (0.1 / 0.5) ** 2, rtol=1e-3)
