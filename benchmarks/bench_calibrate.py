@@ -37,6 +37,7 @@ except ImportError:  # run from a checkout without installing
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
+from _timing import load, machine  # noqa: E402
 
 from rockjax import calibration as cal  # noqa: E402
 
@@ -48,21 +49,6 @@ TOL_BETA = 0.02
 TOL_E = 2e-3
 TARGET_SECONDS = 2.0
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", "calibrate.json")
-
-
-def machine() -> str:
-    model = platform.processor() or "?"
-    try:
-        with open("/proc/cpuinfo") as f:
-            names = [line.split(":", 1)[1].strip() for line in f if line.startswith("model name")]
-        model = names[0] if names else model
-    except OSError:
-        pass
-    return f"{model}, {len(os.sched_getaffinity(0))} cores (nproc)"
-
-
-def load() -> str:
-    return " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def dem_e(block, betas, beta_max):

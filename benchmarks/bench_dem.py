@@ -39,7 +39,7 @@ except ImportError:  # run from a checkout without installing
 
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
-from _timing import timed  # noqa: E402
+from _timing import machine, timed  # noqa: E402
 
 RECORD_DT = 0.01  # [s] record sampling step
 HISTORY_S = 20.0  # [s] one history
@@ -83,17 +83,6 @@ def amplitude_batch(block, beta, dt, ag):
         return rj.simulate_dem(block, motion, beta=beta, dt=dt, throw=False).theta_max
 
     return one
-
-
-def machine() -> str:
-    model = platform.processor() or "?"
-    try:
-        with open("/proc/cpuinfo") as f:
-            names = [line.split(":", 1)[1].strip() for line in f if line.startswith("model name")]
-        model = names[0] if names else model
-    except OSError:
-        pass
-    return f"{model}, {len(os.sched_getaffinity(0))} cores (nproc)"
 
 
 def loop_stats(hlo: str) -> list[dict]:

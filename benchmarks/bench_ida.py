@@ -25,16 +25,13 @@ import time
 
 import jax
 import numpy as np
+from _timing import load
 
 import rockjax as rj
 
 SCALES = np.linspace(0.05, 2.0, 40)
 TARGET_S = 60.0  # issue 4: <= 60 s on these 2 cores
 RESULTS = pathlib.Path(__file__).parent / "results" / "ida.json"
-
-
-def load() -> str:
-    return " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def run(block, records, beta, model="dem"):
