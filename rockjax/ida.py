@@ -77,6 +77,7 @@ def ida(
     tail: ScalarLike = 2.0,
     chunk_size: int = 256,
     progress: bool = True,
+    devices: Sequence[jax.Device] | None = None,
 ) -> xr.Dataset:
     """Incremental dynamic analysis of one block: every record at every scale factor.
 
@@ -99,6 +100,10 @@ def ida(
         chunk_size: Runs per compiled batch; bounds the memory (about
             ``chunk_size * n_time * 8`` bytes per saved series), not the results.
         progress: Print one line per chunk to stderr.
+        devices: Devices to shard each chunk over (its runs split evenly, the records
+            replicated; ``jax.sharding``); default every local device. With one device the
+            chunks run as they are. The chunk size is rounded up to a multiple of the device
+            count. Results do not depend on it (tests/test_ida.py).
 
     Returns:
         An ``xarray.Dataset`` with dims ``("record", "scale")`` and variables
@@ -153,6 +158,10 @@ def ida(
         # the step bound simulate_housner picks for a concrete block
         dt_bound = P_DT_TARGET / float(block.p)
     gap, tail = float(gap), float(tail)
+    devices = list(jax.local_devices() if devices is None else devices)
+    if not devices:
+        raise ValueError("devices must name at least one device, e.g. jax.local_devices().")
+    place = _placement(devices)
     groups, pga, t_end = _group_records(records, tail)
     n_rec = len(records)
     config = dict(model=model, mode=mode, beta=beta, e=e, gap=float(gap), dt_bound=dt_bound)
@@ -162,6 +171,7 @@ def ida(
     for g in groups:
         n_runs_g = g.index.size * scales.size
         size = min(chunk_size, n_runs_g)
+        size = -(-size // len(devices)) * len(devices)  # a multiple of the device count
         for k in range(math.ceil(n_runs_g / size)):
             plan.append((g, k, size, n_runs_g))
         dt_step[g.index] = g.dt / max(1, math.ceil(g.dt / dt_bound - 1e-9))
@@ -179,9 +189,9 @@ def ida(
         real = flat < n_runs_g
         flat = np.where(real, flat, 0)  # padding: repeats of the group's first run, dropped
         local, j = np.divmod(flat, scales.size)
-        out = _run_chunk(
-            block, g.ag, g.ag_v, local.astype(np.int32), scales[j], dt_rec=g.dt, **config
-        )
+        ag, ag_v = place.replicated(g.ag), place.replicated(g.ag_v)
+        rec_k, scale_k = place.split(local.astype(np.int32)), place.split(scales[j])
+        out = _run_chunk(block, ag, ag_v, rec_k, scale_k, dt_rec=g.dt, **config)
         out = jax.device_get(out)
         for key in grid:
             grid[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
@@ -339,6 +349,25 @@ def _check_scales(scales) -> np.ndarray:
             f"scales must be strictly increasing; got scales={s}. Use np.unique(scales)."
         )
     return s
+
+
+class _Placement(NamedTuple):
+    """Puts a chunk's per-run arrays split over the devices and the records on every one."""
+
+    split: object
+    replicated: object
+
+
+def _placement(devices) -> _Placement:
+    if len(devices) == 1:
+        return _Placement(split=lambda x: x, replicated=lambda x: x)
+    mesh = jax.sharding.Mesh(np.asarray(devices), ("run",))
+    runs = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("run"))
+    every = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
+    return _Placement(
+        split=lambda x: jax.device_put(x, runs),
+        replicated=lambda x: None if x is None else jax.device_put(x, every),
+    )
 
 
 class _Group(NamedTuple):

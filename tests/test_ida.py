@@ -203,3 +203,41 @@ def test_invalid_records():
     rec = _records()[0]
     with pytest.raises(ValueError, match="distinct"):
         rj.ida(block, [rec, rec], model="housner", progress=False)
+
+
+_SHARDED = """
+import os
+os.environ["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "") + " --xla_force_host_platform_device_count=2"
+import jax
+import numpy as np
+import rockjax as rj
+assert jax.local_device_count() == 2
+recs = [
+    rj.GroundMotion.sine_cycle(3.0, 0.5, dt=0.01, duration=1.5, name="sine"),
+    rj.GroundMotion.ricker(3.0, 0.4, dt=0.005, duration=1.2, name="ricker"),
+]
+blk = rj.Block(b=0.2, h=1.0)
+sc = np.array([0.3, 0.9, 1.5, 2.1, 2.5])
+kw = dict(model="dem", beta=2e-3, tail=0.5, chunk_size=3, progress=False)
+two = rj.ida(blk, recs, sc, **kw)
+one = rj.ida(blk, recs, sc, devices=jax.local_devices()[:1], **kw)
+for v in ("max_d_over_b", "max_theta_over_eta", "collapse", "status"):
+    np.testing.assert_allclose(two[v].values, one[v].values, rtol=1e-12)
+assert two["collapse"].any() and not two["collapse"].all()
+print("ok")
+"""
+
+
+def test_sharding_over_two_host_devices_does_not_change_results():
+    """Reference: the same IDA on one device. XLA fixes the device count when its backend
+    starts, so the two-device run is a fresh process with two host CPU devices."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    res = subprocess.run(
+        [sys.executable, "-c", _SHARDED], capture_output=True, text=True, env=env, timeout=600
+    )
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip().endswith("ok")
