@@ -248,6 +248,34 @@ def _loss_u_bwd(dval, g, perturbed, u, problem):
     return g * dval
 
 
+def _forward_mode(loss):
+    """``loss(u, problem)`` whose reverse-mode gradient in ``u`` is computed in forward mode:
+    one tangent per parameter (``jax.jacfwd``, primal and tangents in one pass), cheaper than
+    a reverse pass through the long scan for the one or two parameters fitted here."""
+
+    def value_and_jac(u, problem):
+        def both(x):
+            val = loss(x, problem)
+            return val, val
+
+        jac, val = jax.jacfwd(both, has_aux=True)(u)
+        return val, jac
+
+    @eqx.filter_custom_vjp
+    def wrapped(u, problem):
+        return loss(u, problem)
+
+    @wrapped.def_fwd
+    def _fwd(perturbed, u, problem):
+        return value_and_jac(u, problem)
+
+    @wrapped.def_bwd
+    def _bwd(jac, g, perturbed, u, problem):
+        return g * jac
+
+    return wrapped
+
+
 # L-BFGS with a backtracking (Armijo) line search: its trial points need the loss only, so
 # one iteration is one forward-mode derivative plus (usually) one plain run, and the compiled
 # program holds one copy of each (a zoom line search holds four derivative copies: ~3x the
@@ -877,20 +905,7 @@ def _housner_loss(v, problem: _EProblem):
     return jnp.mean(jax.vmap(one)(problem.theta0, problem.dem))
 
 
-@eqx.filter_custom_vjp
-def _e_loss(v, problem: _EProblem):
-    return _housner_loss(v, problem)
-
-
-@_e_loss.def_fwd
-def _e_loss_fwd(perturbed, v, problem):
-    val, dval = jax.jvp(lambda x: _housner_loss(x, problem), (v,), (jnp.ones_like(v),))
-    return val, dval
-
-
-@_e_loss.def_bwd
-def _e_loss_bwd(dval, g, perturbed, v, problem):
-    return g * dval
+_e_loss = _forward_mode(_housner_loss)
 
 
 @eqx.filter_jit
@@ -1046,22 +1061,7 @@ def _history_loss(u, problem: _HProblem):
     return jnp.where(r.status == STATUS_OK, loss, jnp.nan)
 
 
-@eqx.filter_custom_vjp
-def _h_loss(u, problem: _HProblem):
-    return _history_loss(u, problem)
-
-
-@_h_loss.def_fwd
-def _h_loss_fwd(perturbed, u, problem):
-    # two parameters: two forward tangents (jacfwd), cheaper than a reverse pass of the scan
-    val = _history_loss(u, problem)
-    grad = jax.jacfwd(_history_loss)(u, problem)
-    return val, grad
-
-
-@_h_loss.def_bwd
-def _h_loss_bwd(grad, g, perturbed, u, problem):
-    return g * grad
+_h_loss = _forward_mode(_history_loss)
 
 
 @dataclasses.dataclass(frozen=True)
