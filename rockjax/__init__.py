@@ -35,6 +35,7 @@ import jax  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 from . import calibration as calibration  # noqa: E402
+from . import campaign as campaign  # noqa: E402  (dask is imported lazily inside)
 from . import metrics as metrics  # noqa: E402
 from . import plot as plot  # noqa: E402  (matplotlib is imported lazily inside)
 from . import pulses as pulses  # noqa: E402
@@ -78,6 +79,7 @@ __all__ = [
     "beta_hcrit",
     "beta_isr",
     "calibration",
+    "campaign",
     "collapse_intervals",
     "e_housner",
     "e_isr",

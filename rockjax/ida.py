@@ -75,6 +75,7 @@ def ida(
     e: ScalarLike | None = None,
     gap: ScalarLike = 0.0,
     tail: ScalarLike = 2.0,
+    t_end: ScalarLike | None = None,
     chunk_size: int = 256,
     progress: bool = True,
     devices: Sequence[jax.Device] | None = None,
@@ -97,6 +98,9 @@ def ida(
             one-sided).
         gap: DEM one-sided only: facade-to-return-wall gap [m].
         tail: Free vibration appended after the longest record [s].
+        t_end: Length of every run [s]; default the longest record + ``tail``. Give it to make
+            a subset of a record set run exactly as in a call on the whole set (a campaign's
+            parts, :mod:`rockjax.campaign`); it must not cut a record short.
         chunk_size: Runs per compiled batch; bounds the memory (about
             ``chunk_size * n_time * 8`` bytes per saved series), not the results.
         progress: Print one line per chunk to stderr.
@@ -119,52 +123,20 @@ def ida(
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
     """
-    check_choice("model", model, MODELS)
-    check_choice("mode", mode, MODES)
-    block = _scalar_block(block)
+    block, config, e_used = run_config(block, model=model, mode=mode, beta=beta, e=e, gap=gap)
+    beta, e = config["beta"], config["e"]
     scales = _check_scales(scales)
     if not (isinstance(chunk_size, int) and chunk_size >= 1):
         raise ValueError(f"chunk_size must be an int >= 1; got chunk_size={chunk_size!r}. Use 256.")
     check_nonnegative("tail", tail, "s", "tail is the free vibration after the records, e.g. 2.0.")
-    check_nonnegative("gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.")
-    if model == "dem":
-        if e is not None:
-            raise ValueError(
-                f"e (restitution) is a Housner parameter; model='dem' takes beta [s]. Got e={e}."
-            )
-        if beta is None:
-            raise ValueError(
-                "model='dem' needs beta, the stiffness-proportional damping coefficient in s, "
-                "e.g. beta=float(rj.beta_dejong(block)) or beta=2e-3."
-            )
-        check_nonnegative("beta", beta, "s")
-        beta = float(beta)  # a Python float: static under filter_jit, like the block
-        dt_bound = stable_dt(block, beta, mode=mode, gap=gap)
-        e_used = None
-    else:
-        if beta is not None:
-            raise ValueError(
-                f"beta (DEM damping) is not a Housner parameter; model='housner' takes e. "
-                f"Got beta={beta}."
-            )
-        if gap != 0.0:
-            raise ValueError(
-                f"the Housner model has no facade gap; got gap={gap} m. Use model='dem' or gap=0."
-            )
-        one_sided = mode == "one_sided"
-        e = None if e is None else float(e)
-        e_used = float(np.abs(_default_e(block.eta, one_sided))) if e is None else e
-        e_used = abs(e_used) if one_sided else e_used  # simulate_housner uses |e| one-sided
-        # the step bound simulate_housner picks for a concrete block
-        dt_bound = P_DT_TARGET / float(block.p)
     gap, tail = float(gap), float(tail)
     devices = list(jax.local_devices() if devices is None else devices)
     if not devices:
         raise ValueError("devices must name at least one device, e.g. jax.local_devices().")
     place = _placement(devices)
-    groups, pga, t_end = _group_records(records, tail)
+    groups, pga, t_end = _group_records(records, tail, t_end)
     n_rec = len(records)
-    config = dict(model=model, mode=mode, beta=beta, e=e, gap=float(gap), dt_bound=dt_bound)
+    dt_bound = config["dt_bound"]
     # Both simulators split each record step into ceil(dt_rec / dt_bound) equal steps.
     dt_step = np.zeros(n_rec)
     plan = []  # (group, chunk of flat run indices)
@@ -254,6 +226,51 @@ def ida(
         attrs["e"] = e_used
         attrs["e_source"] = "given" if e is not None else "default (Eq. 2 or Eq. 5)"
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+
+
+def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.0):
+    """Checked run parameters of :func:`ida`: ``(block, config, e_used)``.
+
+    ``block`` has Python-float fields; ``config`` holds ``model``, ``mode``, ``beta``, ``e``,
+    ``gap`` (Python floats or None) and ``dt_bound``, the solver step bound [s]; ``e_used`` is
+    the Housner restitution the runs use (None for the DEM). Raises ValueError as :func:`ida`.
+    """
+    check_choice("model", model, MODELS)
+    check_choice("mode", mode, MODES)
+    block = _scalar_block(block)
+    check_nonnegative("gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.")
+    if model == "dem":
+        if e is not None:
+            raise ValueError(
+                f"e (restitution) is a Housner parameter; model='dem' takes beta [s]. Got e={e}."
+            )
+        if beta is None:
+            raise ValueError(
+                "model='dem' needs beta, the stiffness-proportional damping coefficient in s, "
+                "e.g. beta=float(rj.beta_dejong(block)) or beta=2e-3."
+            )
+        check_nonnegative("beta", beta, "s")
+        beta = float(beta)  # a Python float: static under filter_jit, like the block
+        dt_bound = stable_dt(block, beta, mode=mode, gap=gap)
+        e_used = None
+    else:
+        if beta is not None:
+            raise ValueError(
+                f"beta (DEM damping) is not a Housner parameter; model='housner' takes e. "
+                f"Got beta={beta}."
+            )
+        if gap != 0.0:
+            raise ValueError(
+                f"the Housner model has no facade gap; got gap={gap} m. Use model='dem' or gap=0."
+            )
+        one_sided = mode == "one_sided"
+        e = None if e is None else float(e)
+        e_used = float(np.abs(_default_e(block.eta, one_sided))) if e is None else e
+        e_used = abs(e_used) if one_sided else e_used  # simulate_housner uses |e| one-sided
+        # the step bound simulate_housner picks for a concrete block
+        dt_bound = P_DT_TARGET / float(block.p)
+    config = dict(model=model, mode=mode, beta=beta, e=e, gap=float(gap), dt_bound=dt_bound)
+    return block, config, e_used
 
 
 class CollapseIntervals(NamedTuple):
@@ -379,8 +396,9 @@ class _Group(NamedTuple):
     ag_v: jax.Array | None
 
 
-def _group_records(records, tail: float):
-    """Records grouped by ``dt``, each zero-padded to ``t_end`` = the longest record + ``tail``.
+def _group_records(records, tail: float, t_end: float | None = None):
+    """Records grouped by ``dt``, each zero-padded to ``t_end`` (default: the longest record +
+    ``tail``).
 
     Returns ``(groups, pga per record [m/s^2], t_end [s])``.
     """
@@ -401,7 +419,16 @@ def _group_records(records, tail: float):
         )
     for r in records:
         check_positive("dt", r.dt, "s")
-    t_end = max(r.duration for r in records) + tail
+    longest = max(r.duration for r in records)
+    if t_end is None:
+        t_end = longest + tail
+    else:
+        t_end = float(t_end)
+        if not (math.isfinite(t_end) and t_end >= longest - 1e-9):
+            raise ValueError(
+                f"t_end = {t_end} s would cut the longest record ({longest:g} s) short; give "
+                "t_end >= the longest record's duration, or leave it None (longest + tail)."
+            )
     steps: list[float] = []
     for r in records:
         if not any(math.isclose(r.dt, d, rel_tol=1e-9) for d in steps):

@@ -1,0 +1,221 @@
+"""Campaigns on Dask (rockjax/campaign.py): kill + resume equals an uninterrupted run."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import rockjax as rj
+
+pytest.importorskip("distributed")
+
+SCRIPT = textwrap.dedent(
+    """
+    import sys
+    import numpy as np
+    import rockjax as rj
+
+    def main(out, via_address):
+        recs = [
+            rj.GroundMotion.ricker(pga=3.0, period=0.3 + 0.05 * k, duration=24.0, dt=0.005,
+                                   name="ricker" + "-" * k)
+            for k in range(6)
+        ]
+        block = rj.Block(b=0.17, h=1.5)
+        cases = [rj.campaign.Case("facade_dem", block, "pulses", model="dem",
+                                  mode="one_sided", beta=2e-4)]
+        kw = dict(scales=np.linspace(0.1, 3.0, 96), records_per_task=1, progress=False)
+        if via_address:  # a scheduler reached by its address, as on a cluster
+            from dask.distributed import LocalCluster
+
+            with LocalCluster(
+                n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+            ) as c:
+                rj.campaign.run(cases, {"pulses": recs}, out, scheduler=c.scheduler_address, **kw)
+        else:  # the default: a LocalCluster started by run()
+            rj.campaign.run(cases, {"pulses": recs}, out, n_workers=1, **kw)
+
+    if __name__ == "__main__":
+        main(sys.argv[1], sys.argv[2] == "address")
+    """
+)
+N_PARTS = 6
+
+
+def _env(tmp_path):
+    """The three campaign runs share a persistent XLA cache (their workers compile the same
+    executable): faster, and results do not depend on it."""
+    cache = dict(JAX_COMPILATION_CACHE_DIR=str(tmp_path / "xla_cache"))
+    return dict(os.environ, JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0", **cache)
+
+
+def _start(script, out, log, env):
+    with open(log, "wb") as f:
+        return subprocess.Popen(
+            [sys.executable, str(script), str(out), "local"],
+            stdout=f,
+            stderr=subprocess.STDOUT,
+            env=env,
+            start_new_session=True,  # its own process group: the Dask workers die with it
+        )
+
+
+def _parts(out):
+    return sorted((out / "facade_dem").glob("part-*.nc")) if (out / "facade_dem").exists() else []
+
+
+def _kill_group(proc):
+    pgid = os.getpgid(proc.pid)
+    os.killpg(pgid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:  # every process of the group gone: no late writes
+        try:
+            os.killpg(pgid, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    raise AssertionError("campaign processes survived SIGKILL of their group")
+
+
+def _equal(a: xr.Dataset, b: xr.Dataset):
+    assert list(a["record"].values) == list(b["record"].values)
+    for name in list(a.data_vars) + list(a.coords):
+        np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+
+
+def test_killed_campaign_resumes_to_the_uninterrupted_dataset(tmp_path):
+    script = tmp_path / "campaign.py"
+    script.write_text(SCRIPT)
+    killed, clean = tmp_path / "killed", tmp_path / "clean"
+
+    log = tmp_path / "killed.log"
+    env = _env(tmp_path)
+    proc = _start(script, killed, log, env)
+    deadline = time.monotonic() + 240
+    while not _parts(killed):
+        assert proc.poll() is None, log.read_text()
+        assert time.monotonic() < deadline, "no part finished in 240 s"
+        time.sleep(0.02)
+    _kill_group(proc)
+    done = _parts(killed)
+    assert 1 <= len(done) < N_PARTS, f"kill landed after {len(done)} of {N_PARTS} parts"
+    stamps = {p.name: (p.stat().st_ino, p.stat().st_mtime_ns) for p in done}
+    # a half-written temporary file, as a kill during a write leaves one
+    (killed / "facade_dem" / ".part-0005.nc.deadbeef.tmp").write_bytes(b"\x89HDF\r\n")
+
+    # resume the killed one (LocalCluster); run the other uninterrupted (scheduler address)
+    for out, how in ((killed, "local"), (clean, "address")):
+        cmd = [sys.executable, str(script), str(out), how]
+        rc = subprocess.run(cmd, capture_output=True, timeout=600, env=env)
+        assert rc.returncode == 0, rc.stdout.decode() + rc.stderr.decode()
+
+    # finished parts were kept, not recomputed; the temporary file is gone
+    for p in done:
+        assert (p.stat().st_ino, p.stat().st_mtime_ns) == stamps[p.name], p.name
+    assert len(_parts(killed)) == N_PARTS
+    assert not list((killed / "facade_dem").glob(".*.tmp"))
+
+    resumed, uninterrupted = rj.campaign.load(killed), rj.campaign.load(clean)
+    ds, ref = resumed["facade_dem"], uninterrupted["facade_dem"]
+    assert ds.sizes == {"record": N_PARTS, "scale": 96}
+    _equal(ds, ref)
+    assert 0 < int(ds["collapse"].sum()) < ds["collapse"].size  # both outcomes present
+
+    # and both equal one rj.ida call on the whole set (the parts run the set's t_end)
+    recs = [
+        rj.GroundMotion.ricker(
+            pga=3.0, period=0.3 + 0.05 * k, duration=24.0, dt=0.005, name="ricker" + "-" * k
+        )
+        for k in range(N_PARTS)
+    ]
+    one = rj.ida(
+        rj.Block(b=0.17, h=1.5),
+        recs,
+        np.linspace(0.1, 3.0, 96),
+        model="dem",
+        mode="one_sided",
+        beta=2e-4,
+        progress=False,
+    )
+    for name in one.data_vars:
+        np.testing.assert_array_equal(ds[name].values, one[name].values, err_msg=name)
+
+
+def _small(tmp_path, **kw):
+    recs = [rj.GroundMotion.ricker(pga=2.0, period=0.4, duration=2.0, name="r0")]
+    case = rj.campaign.Case("c", rj.Block(b=0.25, h=3.0), "s", model="housner")
+    return case, {"s": recs}
+
+
+def test_foreign_parts_and_bad_cases_are_refused(tmp_path):
+    case, records = _small(tmp_path)
+    tasks = rj.campaign._plan([case], records, np.array([1.0, 2.0]), 2.0, {"dem": 4, "housner": 4})
+    (tmp_path / "c").mkdir()
+    rj.campaign._update_manifest(tmp_path, [case], tasks, np.array([1.0, 2.0]), 2.0)
+    with pytest.raises(ValueError, match="other parameters, scales, tail, records"):
+        rj.campaign.run([case], records, tmp_path, scales=[1.0, 3.0])
+    other = rj.campaign.Case("c", rj.Block(b=0.2, h=3.0), "s", model="housner")
+    with pytest.raises(ValueError, match="other parameters"):
+        rj.campaign.run([other], records, tmp_path, scales=[1.0, 2.0])
+    with pytest.raises(ValueError, match="not a safe file name"):
+        rj.campaign.run([rj.campaign.Case("a/b", case.block, "s")], records, tmp_path / "x")
+    with pytest.raises(ValueError, match="not among the records"):
+        rj.campaign.run([rj.campaign.Case("a", case.block, "nope")], records, tmp_path / "x")
+    with pytest.raises(ValueError, match="must be distinct"):
+        rj.campaign.run([case, case], records, tmp_path / "x")
+    with pytest.raises(ValueError, match="needs beta"):
+        rj.campaign.run([rj.campaign.Case("d", case.block, "s")], records, tmp_path / "x")
+    with pytest.raises(ValueError, match="needs beta"):
+        rj.campaign.grid({"b": case.block}, ["s"], models=("dem",))
+    with pytest.raises(ValueError, match="not a campaign directory"):
+        rj.campaign.load(tmp_path / "nothing")
+
+
+def test_grid_names_and_parameters():
+    blocks = {"h3": rj.Block(b=0.25, h=3.0)}
+    beta = {("h3", "two_sided"): 1e-3, ("h3", "one_sided"): 2e-4}
+    cases = rj.campaign.grid(blocks, ["nf", "ff"], beta=beta, gap=0.001)
+    assert len(cases) == 8
+    names = {c.name: c for c in cases}
+    assert names["h3_one_sided_dem_nf"].beta == 2e-4
+    assert names["h3_one_sided_dem_nf"].gap == 0.001
+    assert names["h3_two_sided_dem_ff"].gap == 0.0
+    assert names["h3_two_sided_housner_ff"].beta is None
+
+
+def test_parts_split_by_dt_and_fingerprints_change_with_the_data():
+    block = rj.Block(b=0.25, h=3.0)
+    recs = [
+        rj.GroundMotion.ricker(pga=2.0, period=0.4, duration=2.0 + k, dt=dt, name=f"r{k}")
+        for k, dt in enumerate([0.005, 0.01, 0.005, 0.005, 0.01])
+    ]
+    case = rj.campaign.Case("c", block, "s", model="dem", beta=1e-3)
+    tasks = rj.campaign._plan([case], {"s": recs}, np.array([1.0]), 2.0, {"dem": 2, "housner": 2})
+    assert [t.index for t in tasks] == [(0, 2), (3,), (1, 4)]
+    assert {t.t_end for t in tasks} == {recs[-1].duration + 2.0}
+    recs2 = list(recs)
+    recs2[3] = recs[3].scaled(1.0 + 1e-12)
+    tasks2 = rj.campaign._plan([case], {"s": recs2}, np.array([1.0]), 2.0, {"dem": 2, "housner": 2})
+    assert [t.fingerprint for t in tasks] != [t.fingerprint for t in tasks2]
+
+
+def test_ida_t_end_runs_a_subset_as_in_the_whole_set():
+    """rj.ida(t_end=...), which the parts use: a subset runs as inside the whole set."""
+    block = rj.Block(b=0.25, h=3.0)
+    short = rj.GroundMotion.ricker(pga=2.5, period=0.5, duration=3.0, name="short")
+    long = rj.GroundMotion.ricker(pga=1.0, period=0.8, duration=6.0, name="long")
+    kw = dict(model="dem", beta=1e-3, progress=False)
+    whole = rj.ida(block, [short, long], [0.5, 1.0, 1.5], **kw)
+    part = rj.ida(block, [short], [0.5, 1.0, 1.5], t_end=whole.attrs["t_end"], **kw)
+    assert part.attrs["t_end"] == whole.attrs["t_end"] == 8.0
+    for name in part.data_vars:
+        np.testing.assert_array_equal(part[name].values[0], whole[name].values[0], err_msg=name)
+    with pytest.raises(ValueError, match="cut the longest record"):
+        rj.ida(block, [short, long], [1.0], t_end=5.0, **kw)
