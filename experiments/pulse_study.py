@@ -21,7 +21,7 @@ Stages (each prints its wall time; all are written to ``summary.json``):
     python experiments/pulse_study.py [--out experiments/results/pulse_study]
         [--scheduler tcp://host:8786] [--workers 2] [--quick]
 
-``--quick`` runs one block and 6 records per set on 16 scales (a smoke run, ~2 min).
+``--quick`` runs one block and 6 records per set on 16 scales (a smoke run, ~1 min).
 The findings are written up in experiments/README.md.
 """
 

@@ -1,11 +1,13 @@
 """Campaigns on Dask (rockjax/campaign.py): kill + resume equals an uninterrupted run."""
 
+import json
 import os
 import signal
 import subprocess
 import sys
 import textwrap
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -219,3 +221,21 @@ def test_ida_t_end_runs_a_subset_as_in_the_whole_set():
         np.testing.assert_array_equal(part[name].values[0], whole[name].values[0], err_msg=name)
     with pytest.raises(ValueError, match="cut the longest record"):
         rj.ida(block, [short, long], [1.0], t_end=5.0, **kw)
+
+
+@pytest.mark.slow
+def test_pulse_study_quick_runs_end_to_end(tmp_path):
+    """experiments/pulse_study.py --quick: records, calibration, campaign, tables, figures."""
+    root = Path(__file__).resolve().parents[1]
+    cmd = [sys.executable, str(root / "experiments" / "pulse_study.py"), "--quick"]
+    rc = subprocess.run(cmd + ["--out", str(tmp_path)], capture_output=True, timeout=900, cwd=root)
+    assert rc.returncode == 0, rc.stdout.decode()[-3000:] + rc.stderr.decode()[-3000:]
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert (
+        summary["n_runs"] == 8 * 6 * 16
+    )  # 8 cases, each 6 records of its set and summary["n_failed_runs"] == 0
+    assert len(summary["ratios"]) == 4  # parapet/facade x DEM/Housner of one block
+    for name in summary["figures"]:
+        assert (tmp_path / name).stat().st_size > 10_000
+    with open(tmp_path / "capacities.csv") as f:
+        assert len(f.read().splitlines()) == 1 + 4 * 12
