@@ -11,7 +11,11 @@ every part of a case is on disk, the case is assembled into ``out/<case>.nc``.
 Resuming: run the same campaign with the same ``out`` again. Parts already on disk are not
 recomputed; a part whose fingerprint (a hash of the case, the scale factors, the run length
 and the record data) differs from the campaign's raises an error instead of mixing two
-campaigns. Every part runs with the whole record set's run length ``t_end``, so a part's runs
+campaigns. The manifest records the SHA-256 checksum of every finished part and assembled case:
+a part whose file no longer matches its checksum, or that cannot be read back (a truncated or
+empty file), is reported by name (a ``RuntimeWarning``), kept aside as ``*.damaged`` and
+recomputed; a damaged assembled case is rebuilt from its parts. A finished campaign is read
+without writing anything, so it can be re-loaded through :func:`run` from a read-only folder. Every part runs with the whole record set's run length ``t_end``, so a part's runs
 equal those of one :func:`rockjax.ida` call on the whole set, and an interrupted and resumed
 campaign gives the same datasets as an uninterrupted one (tests/test_campaign.py kills one).
 
@@ -31,6 +35,7 @@ import os
 import re
 import time
 import uuid
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -175,22 +180,15 @@ def run(
     """
     out = Path(out)
     scales = _check_scales(scales)
-    per = records_per_task
-    per = dict.fromkeys(MODELS, per) if not isinstance(per, Mapping) else dict(per)
-    for model in MODELS:
-        n = per.get(model, 8)
-        if not (isinstance(n, int) and n >= 1):
-            raise ValueError(
-                f"records_per_task must be an int >= 1 per model; got {records_per_task!r}."
-            )
-        per[model] = n
-    tasks = _plan(cases, records, scales, float(tail), per)
+    parts = plan(cases, records, scales=scales, tail=tail, records_per_task=records_per_task)
     out.mkdir(parents=True, exist_ok=True)
-    _update_manifest(out, cases, tasks, scales, float(tail))
-    pending = [t for t in tasks if not _part_done(out, t)]
+    manifest = _Manifest.open(out)
+    manifest.register(cases, parts, scales, float(tail))
+    pending = [p for p in parts if not _part_ok(out, p, manifest)]
+    manifest.save()
     if pending:
-        _compute(pending, records, scales, out, scheduler, n_workers, progress)
-    return {case.name: _assemble(out, case, tasks, records) for case in cases}
+        _compute(pending, records, scales, out, scheduler, n_workers, progress, manifest)
+    return {case.name: _assemble(out, case, parts, records, manifest) for case in cases}
 
 
 def load(out: str | os.PathLike) -> dict[str, xr.Dataset]:
@@ -206,15 +204,27 @@ def load(out: str | os.PathLike) -> dict[str, xr.Dataset]:
         raise ValueError(f"{out} has no {MANIFEST}; it is not a campaign directory.")
     cases = json.loads(manifest.read_text())["cases"]
     result = {}
-    for name in cases:
+    for name, entry in cases.items():
         path = out / f"{name}.nc"
         if not path.exists():
             raise ValueError(
                 f"case {name!r} of {out} is not finished ({path.name} is missing); run the "
                 "campaign again with rockjax.campaign.run to complete it."
             )
-        with xr.open_dataset(path, engine="h5netcdf") as ds:
-            result[name] = ds.load()
+        recorded = entry.get("assembled")
+        if recorded is not None and _sha256(path) != recorded:
+            raise ValueError(
+                f"{path} does not match the checksum in {MANIFEST} (changed or damaged since it "
+                "was written); run the campaign again with rockjax.campaign.run and the same "
+                "arguments to rebuild it from its parts."
+            )
+        ds, err = _read(path)
+        if ds is None:
+            raise ValueError(
+                f"{path} cannot be read ({err}); run the campaign again with "
+                "rockjax.campaign.run and the same arguments to rebuild it from its parts."
+            )
+        result[name] = ds
     return result
 
 
@@ -222,22 +232,66 @@ def load(out: str | os.PathLike) -> dict[str, xr.Dataset]:
 
 
 @dataclasses.dataclass(frozen=True)
-class _Task:
+class Part:
+    """One task of a campaign: a few records of one case (one ``dt``), all scale factors.
+
+    Attributes:
+        case: The case it belongs to.
+        part: Its number within the case.
+        index: Indices of its records in the case's record set.
+        size: Records run (``index`` padded with repeats of its first record to the size of
+            every part of its ``dt`` group, so the group compiles one shape).
+        group: The case and ``dt`` it shares a compiled shape with.
+        t_end: Run length [s] (the whole set's longest record plus the tail).
+        fingerprint: Hash of the case, scale factors, run length and record data.
+        cost: Relative cost (runs x steps), for scheduling.
+    """
+
     case: Case
     part: int
-    index: tuple[int, ...]  # record indices in the set
-    size: int  # records run (index padded with repeats of its first to the group's size)
-    group: str  # case and dt: parts of one group compile one shape
+    index: tuple[int, ...]
+    size: int
+    group: str
     t_end: float
     fingerprint: str
-    cost: float  # relative: runs x steps
+    cost: float
 
     @property
     def key(self) -> str:
+        """``"<case>/part-NNNN"``."""
         return f"{self.case.name}/part-{self.part:04d}"
 
+    @property
+    def filename(self) -> str:
+        """``"<case>/part-NNNN-<fingerprint>.nc"``, relative to the campaign directory: the name
+        says which campaign wrote it."""
+        return f"{self.case.name}/part-{self.part:04d}-{self.fingerprint}.nc"
 
-def _plan(cases, records, scales, tail, records_per_task) -> list[_Task]:
+
+def plan(
+    cases: Sequence[Case],
+    records: Mapping[str, Sequence[GroundMotion]],
+    *,
+    scales=DEFAULT_SCALES,
+    tail: float = 2.0,
+    records_per_task: int | Mapping[str, int] = 8,
+) -> list[Part]:
+    """The parts :func:`run` computes, without running anything (arguments as there).
+
+    Raises:
+        ValueError: on invalid cases, records or part sizes, naming the fix.
+    """
+    scales = _check_scales(scales)
+    tail = float(tail)
+    per = records_per_task
+    per = dict.fromkeys(MODELS, per) if not isinstance(per, Mapping) else dict(per)
+    for model in MODELS:
+        n = per.get(model, 8)
+        if not (isinstance(n, int) and n >= 1):
+            raise ValueError(
+                f"records_per_task must be an int >= 1 per model; got {records_per_task!r}."
+            )
+        per[model] = n
     if isinstance(cases, Case) or not cases:
         raise ValueError("cases must be a non-empty sequence of rockjax.campaign.Case.")
     names = [c.name for c in cases]
@@ -265,7 +319,7 @@ def _plan(cases, records, scales, tail, records_per_task) -> list[_Task]:
         if len(set(rnames)) != len(rnames):
             raise ValueError(f"record names repeat within set {key!r}; they label the datasets.")
         set_hash[key] = [_record_hash(r) for r in recs]
-    tasks = []
+    parts = []
     for c in cases:
         _, config, _ = run_config(
             c.block, model=c.model, mode=c.mode, beta=c.beta, e=c.e, gap=c.gap
@@ -281,21 +335,21 @@ def _plan(cases, records, scales, tail, records_per_task) -> list[_Task]:
         for r in recs:
             if not any(math.isclose(r.dt, d, rel_tol=1e-9) for d in steps):
                 steps.append(r.dt)
-        part = 0
-        per = records_per_task[c.model]
+        number = 0
+        size_max = per[c.model]
         for d in steps:
             idx = [i for i, r in enumerate(recs) if math.isclose(r.dt, d, rel_tol=1e-9)]
             n_sub = max(1, math.ceil(d / config["dt_bound"] - 1e-9))
-            n_parts = math.ceil(len(idx) / per)
+            n_parts = math.ceil(len(idx) / size_max)
             size = math.ceil(len(idx) / n_parts)
             for k in range(n_parts):
                 chunk = tuple(idx[k * size : (k + 1) * size])
                 fp = hashlib.sha256(f"{spec}|{chunk}".encode()).hexdigest()[:16]
                 cost = size * scales.size * (t_end / d) * n_sub
                 group = f"{c.name}@{d:g}"
-                tasks.append(_Task(c, part, chunk, size, group, t_end, fp, cost))
-                part += 1
-    return tasks
+                parts.append(Part(c, number, chunk, size, group, t_end, fp, cost))
+                number += 1
+    return parts
 
 
 def _record_hash(r: GroundMotion) -> str:
@@ -308,41 +362,118 @@ def _record_hash(r: GroundMotion) -> str:
     return h.hexdigest()[:16]
 
 
-def _update_manifest(out: Path, cases, tasks, scales, tail) -> None:
-    path = out / MANIFEST
-    old = json.loads(path.read_text()) if path.exists() else {"cases": {}}
-    fps: dict[str, dict[str, str]] = {}
-    for t in tasks:
-        fps.setdefault(t.case.name, {})[t.key] = t.fingerprint
-    for c in cases:
-        prev = old["cases"].get(c.name)
-        if prev is not None and prev["parts"] != fps[c.name]:
+class _Manifest:
+    """``campaign.json``: per case its spec, its parts' fingerprints and the checksums of the
+    finished files. Written atomically, and only when its content changes."""
+
+    def __init__(self, out: Path, data: dict, text: str | None):
+        self.out, self.data, self._text = out, data, text
+
+    @classmethod
+    def open(cls, out: Path) -> _Manifest:
+        path = out / MANIFEST
+        text = path.read_text() if path.exists() else None
+        return cls(out, json.loads(text) if text else {"cases": {}}, text)
+
+    def register(self, cases, parts, scales, tail) -> None:
+        """Add the cases; a case already there with other parts raises (another campaign)."""
+        fps: dict[str, dict[str, str]] = {}
+        for p in parts:
+            fps.setdefault(p.case.name, {})[p.key] = p.fingerprint
+        for c in cases:
+            prev = self.data["cases"].get(c.name)
+            if prev is not None and prev["parts"] != fps[c.name]:
+                raise ValueError(
+                    f"{self.out} already holds case {c.name!r} run with other parameters, scales, "
+                    f"tail, records or records_per_task. Use another output directory, or delete "
+                    f"{self.out / c.name} and {self.out / (c.name + '.nc')} to recompute it."
+                )
+            if prev is None:
+                self.data["cases"][c.name] = dict(spec=c.spec(), parts=fps[c.name], checksums={})
+        self.data["scales"] = scales.tolist()
+        self.data["tail"] = tail
+
+    def checksum(self, part: Part) -> str | None:
+        return self.data["cases"][part.case.name].get("checksums", {}).get(part.key)
+
+    def set_checksum(self, part: Part, digest: str | None) -> None:
+        sums = self.data["cases"][part.case.name].setdefault("checksums", {})
+        if digest is None:
+            sums.pop(part.key, None)
+        else:
+            sums[part.key] = digest
+
+    def assembled(self, name: str) -> str | None:
+        return self.data["cases"][name].get("assembled")
+
+    def set_assembled(self, name: str, digest: str) -> None:
+        self.data["cases"][name]["assembled"] = digest
+
+    def save(self) -> None:
+        text = json.dumps(self.data, indent=1, sort_keys=True)
+        if text != self._text:
+            _atomic_write_text(self.out / MANIFEST, text)
+            self._text = text
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _read(path: Path) -> tuple[xr.Dataset | None, str]:
+    """The dataset in ``path`` loaded into memory, or ``(None, why)`` if it cannot be read."""
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            return ds.load(), ""
+    except (OSError, ValueError, KeyError, RuntimeError) as err:  # h5py/xarray on a bad file
+        return None, f"{type(err).__name__}: {err}"
+
+
+def _set_aside(path: Path, why: str) -> None:
+    """Report a damaged file by name and move it to ``*.damaged`` (kept for inspection)."""
+    aside = path.with_name(path.name + ".damaged")
+    warnings.warn(
+        f"campaign file {path} is damaged ({why}); moved to {aside.name} and recomputed.",
+        RuntimeWarning,
+        stacklevel=3,
+    )
+    os.replace(path, aside)
+
+
+def _part_ok(out: Path, part: Part, manifest: _Manifest) -> bool:
+    """Whether ``part`` is on disk and whole. A damaged part is set aside (to recompute); a
+    finished part not yet in the manifest (the client was stopped before recording it) is
+    accepted if it reads back as this part; a part of the same number from another campaign
+    raises."""
+    path = out / part.filename
+    if not path.exists():
+        others = list((out / part.case.name).glob(f"part-{part.part:04d}-*.nc"))
+        if others:
             raise ValueError(
-                f"{out} already holds case {c.name!r} run with other parameters, scales, tail, "
-                f"records or records_per_task. Use another output directory, or delete {out / c.name} and "
-                f"{out / (c.name + '.nc')} to recompute it."
+                f"{others[0]} was written by a different campaign (expected fingerprint "
+                f"{part.fingerprint}); use another output directory or delete {others[0].parent}."
             )
-        old["cases"][c.name] = dict(spec=c.spec(), parts=fps[c.name])
-    old["scales"] = scales.tolist()
-    old["tail"] = tail
-    _atomic_write_text(path, json.dumps(old, indent=1, sort_keys=True))
-
-
-def _part_path(out: Path, task: _Task) -> Path:
-    """``out/<case>/part-NNNN-<fingerprint>.nc``: the name says which campaign wrote it."""
-    return out / task.case.name / f"part-{task.part:04d}-{task.fingerprint}.nc"
-
-
-def _part_done(out: Path, task: _Task) -> bool:
-    """Whether the part is on disk; a part of the same number from another campaign raises."""
-    if _part_path(out, task).exists():
-        return True
-    others = list((out / task.case.name).glob(f"part-{task.part:04d}-*.nc"))
-    if others:
-        raise ValueError(
-            f"{others[0]} was written by a different campaign (expected fingerprint "
-            f"{task.fingerprint}); use another output directory or delete {others[0].parent}."
-        )
+        manifest.set_checksum(part, None)
+        return False
+    digest, recorded = _sha256(path), manifest.checksum(part)
+    if recorded is not None:
+        if digest == recorded:
+            return True
+        why = f"checksum {digest[:12]}... differs from the manifest's {recorded[:12]}..."
+    else:
+        ds, why = _read(path)
+        if ds is not None:
+            n = ds.sizes.get("record")
+            if ds.attrs.get("campaign_fingerprint") == part.fingerprint and n == len(part.index):
+                manifest.set_checksum(part, digest)
+                return True
+            why = "it is not this part's dataset"
+    _set_aside(path, why)
+    manifest.set_checksum(part, None)
     return False
 
 
@@ -350,7 +481,8 @@ def _part_done(out: Path, task: _Task) -> bool:
 
 
 def _run_part(case: Case, recs, size, scales, t_end, fingerprint, key, path):
-    """A Dask task: one part's IDA, written atomically to ``path``. Returns (key, seconds).
+    """A Dask task: one part's IDA, written atomically to ``path``. Returns (key, seconds,
+    SHA-256 of the file).
 
     The part's records are padded to ``size`` with renamed repeats of the first (so every part
     of a ``dt`` group compiles the same shape); the repeats are dropped from the result.
@@ -383,13 +515,11 @@ def _run_part(case: Case, recs, size, scales, t_end, fingerprint, key, path):
     )
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    ds.to_netcdf(tmp, engine="h5netcdf")
-    os.replace(tmp, path)  # atomic: the part is whole or absent
-    return key, time.perf_counter() - start
+    digest = _atomic_to_netcdf(ds, path)
+    return key, time.perf_counter() - start, digest
 
 
-def _compute(pending, records, scales, out, scheduler, n_workers, progress) -> None:
+def _compute(pending, records, scales, out, scheduler, n_workers, progress, manifest) -> None:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
         from tqdm import tqdm
@@ -431,7 +561,7 @@ def _compute(pending, records, scales, out, scheduler, n_workers, progress) -> N
                 t.t_end,
                 t.fingerprint,
                 t.key,
-                str(_part_path(out, t)),
+                str(out / t.filename),
                 key=f"rockjax-{t.fingerprint}",
                 pure=False,
                 workers=home.get(t.group),
@@ -443,6 +573,9 @@ def _compute(pending, records, scales, out, scheduler, n_workers, progress) -> N
             t = futures[fut]
             if fut.status == "error":
                 failed.append((t.key, repr(fut.exception())))
+            else:  # recorded as each part lands, so a stopped client loses no checksum
+                manifest.set_checksum(t, fut.result()[2])
+                manifest.save()
             bar.set_postfix_str(t.key, refresh=False)
             bar.update(1)
         bar.close()
@@ -480,22 +613,33 @@ def _assign_groups(tasks, workers: list[str]) -> dict[str, list[str]]:
 # ----------------------------------------------------------------------------- assembling
 
 
-def _assemble(out: Path, case: Case, tasks, records) -> xr.Dataset:
+def _assemble(out: Path, case: Case, parts, records, manifest: _Manifest) -> xr.Dataset:
     """The case's parts joined in the record set's order, also written to ``out/<case>.nc``."""
-    parts = [t for t in tasks if t.case.name == case.name]
-    fingerprint = hashlib.sha256("|".join(t.fingerprint for t in parts).encode()).hexdigest()[:16]
+    parts = [p for p in parts if p.case.name == case.name]
+    fingerprint = hashlib.sha256("|".join(p.fingerprint for p in parts).encode()).hexdigest()[:16]
     path = out / f"{case.name}.nc"
-    expected = [records[case.records][i].name for i in sorted(i for t in parts for i in t.index)]
-    if path.exists():  # assembled before: reuse it if it is this campaign's
-        with xr.open_dataset(path, engine="h5netcdf") as ds:
+    expected = [records[case.records][i].name for i in sorted(i for p in parts for i in p.index)]
+    if path.exists():  # assembled before: reuse it if it is this campaign's and whole
+        digest, recorded = _sha256(path), manifest.assembled(case.name)
+        ds, why = _read(path)
+        if ds is not None and recorded not in (None, digest):
+            ds, why = None, f"checksum {digest[:12]}... differs from the manifest's"
+        if ds is not None:
             names = [str(r) for r in ds["record"].values]
             if ds.attrs.get("campaign_fingerprint") == fingerprint and names == expected:
-                return ds.load()
-    order = np.argsort(np.concatenate([np.asarray(t.index) for t in parts]), kind="stable")
+                if recorded is None:
+                    manifest.set_assembled(case.name, digest)
+                    manifest.save()
+                return ds
+        else:
+            _set_aside(path, why)
+    order = np.argsort(np.concatenate([np.asarray(p.index) for p in parts]), kind="stable")
     datasets = []
-    for t in parts:
-        with xr.open_dataset(_part_path(out, t), engine="h5netcdf") as ds:
-            datasets.append(ds.load())
+    for p in parts:
+        ds, why = _read(out / p.filename)
+        if ds is None:  # pragma: no cover - checked before computing; a change in between
+            raise RuntimeError(f"{out / p.filename} cannot be read ({why}); run again.")
+        datasets.append(ds)
     # strings as objects: concat would cut every name to the first part's fixed width
     datasets = [
         d.assign_coords({k: d[k].astype(object) for k in d.coords if d[k].dtype.kind == "U"})
@@ -524,10 +668,19 @@ def _assemble(out: Path, case: Case, tasks, records) -> xr.Dataset:
     ds.attrs["campaign_case"] = case.name
     ds.attrs["campaign_fingerprint"] = fingerprint
     ds.attrs["created"] = min(d.attrs["created"] for d in datasets)
+    manifest.set_assembled(case.name, _atomic_to_netcdf(ds, path))
+    manifest.save()
+    return ds
+
+
+def _atomic_to_netcdf(ds: xr.Dataset, path: Path) -> str:
+    """Write ``ds`` to ``path`` through a temporary name and a rename (the file is whole or
+    absent); returns its SHA-256."""
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     ds.to_netcdf(tmp, engine="h5netcdf")
+    digest = _sha256(tmp)
     os.replace(tmp, path)
-    return ds
+    return digest
 
 
 def _atomic_write_text(path: Path, text: str) -> None:

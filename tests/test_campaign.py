@@ -2,6 +2,7 @@
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -150,22 +151,141 @@ def test_killed_campaign_resumes_to_the_uninterrupted_dataset(tmp_path):
         np.testing.assert_array_equal(ds[name].values, one[name].values, err_msg=name)
 
 
-def _small(tmp_path, **kw):
-    recs = [rj.GroundMotion.ricker(pga=2.0, period=0.4, duration=2.0, name="r0")]
+SMALL_SCALES = [1.0, 2.0]
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """A small finished Housner campaign (two parts, run on an in-process Dask cluster):
+    ``(case, records, directory, datasets)``; tests work on copies of the directory."""
+    from dask.distributed import Client, LocalCluster
+
+    recs = [
+        rj.GroundMotion.ricker(pga=2.0 + k, period=0.4, duration=2.0, name=f"r{k}")
+        for k in range(2)
+    ]
     case = rj.campaign.Case("c", rj.Block(b=0.25, h=3.0), "s", model="housner")
-    return case, {"s": recs}
+    out = tmp_path_factory.mktemp("finished")
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
+        with Client(cluster) as client:
+            result = rj.campaign.run(
+                [case],
+                {"s": recs},
+                out,
+                scales=SMALL_SCALES,
+                records_per_task=1,
+                scheduler=client,
+                progress=False,
+            )
+    return case, {"s": recs}, out, result
 
 
-def test_foreign_parts_and_bad_cases_are_refused(tmp_path):
-    case, records = _small(tmp_path)
-    tasks = rj.campaign._plan([case], records, np.array([1.0, 2.0]), 2.0, {"dem": 4, "housner": 4})
-    (tmp_path / "c").mkdir()
-    rj.campaign._update_manifest(tmp_path, [case], tasks, np.array([1.0, 2.0]), 2.0)
+def _rerun(case, records, out):
+    from dask.distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
+        with Client(cluster) as client:
+            return rj.campaign.run(
+                [case],
+                records,
+                out,
+                scales=SMALL_SCALES,
+                records_per_task=1,
+                scheduler=client,
+                progress=False,
+            )
+
+
+def _files(out):
+    return {
+        str(p.relative_to(out)): (p.stat().st_mtime_ns, p.stat().st_size)
+        for p in sorted(out.rglob("*"))
+        if p.is_file()
+    }
+
+
+def test_finished_campaign_is_read_back_without_writing_or_computing(finished):
+    """Nothing is written (so a read-only copy loads) and nothing runs: the scheduler address
+    given leads nowhere and is never contacted."""
+    case, records, out, result = finished
+    before = _files(out)
+    again = rj.campaign.run(
+        [case],
+        records,
+        out,
+        scales=SMALL_SCALES,
+        records_per_task=1,
+        scheduler="tcp://127.0.0.1:9",
+        progress=False,
+    )
+    assert _files(out) == before
+    _equal(again["c"], result["c"])
+    manifest = json.loads((out / "campaign.json").read_text())["cases"]["c"]
+    assert len(manifest["checksums"]) == 2 and len(manifest["assembled"]) == 64
+
+
+@pytest.mark.parametrize("damage", ["truncated", "empty", "altered", "unrecorded"])
+def test_damaged_part_is_reported_by_name_and_recomputed(finished, tmp_path, damage):
+    case, records, src, result = finished
+    out = tmp_path / "c"
+    shutil.copytree(src, out)
+    part = sorted((out / "c").glob("part-0001-*.nc"))[0]
+    if damage == "truncated":
+        part.write_bytes(part.read_bytes()[: part.stat().st_size // 2])
+    elif damage == "empty":
+        part.write_bytes(b"")
+    elif damage == "unrecorded":  # no checksum yet (client stopped): found by reading it back
+        manifest = json.loads((out / "campaign.json").read_text())
+        manifest["cases"]["c"]["checksums"].pop("c/part-0001")
+        (out / "campaign.json").write_text(json.dumps(manifest))
+        part.write_bytes(part.read_bytes()[:-100])
+    else:  # still valid HDF5, one value changed: only the checksum can tell
+        with xr.open_dataset(part, engine="h5netcdf") as ds:
+            ds = ds.load()
+        ds["max_theta_over_eta"][0, 0] = 0.123
+        ds.to_netcdf(part, engine="h5netcdf")
+    (out / "c.nc").unlink()  # the assembled case is rebuilt from the parts
+    with pytest.warns(RuntimeWarning, match=r"part-0001-\w+\.nc is damaged"):
+        again = _rerun(case, records, out)
+    assert (part.parent / (part.name + ".damaged")).exists()
+    _equal(again["c"], result["c"])
+    _equal(rj.campaign.load(out)["c"], result["c"])
+
+
+def test_damaged_assembled_case_is_refused_by_load_and_rebuilt_by_run(finished, tmp_path):
+    case, records, src, result = finished
+    out = tmp_path / "c"
+    shutil.copytree(src, out)
+    with xr.open_dataset(out / "c.nc", engine="h5netcdf") as ds:
+        ds = ds.load()
+    ds["collapse"][0, 0] = ~ds["collapse"][0, 0]
+    ds.to_netcdf(out / "c.nc", engine="h5netcdf")
+    with pytest.raises(ValueError, match="does not match the checksum.*run the campaign again"):
+        rj.campaign.load(out)
+    (out / "c.nc").write_bytes(b"\x89HDF")
+    with pytest.warns(RuntimeWarning, match=r"c\.nc is damaged"):
+        again = rj.campaign.run(
+            [case],
+            records,
+            out,
+            scales=SMALL_SCALES,
+            records_per_task=1,
+            progress=False,
+            scheduler="tcp://127.0.0.1:9",  # the parts are whole: nothing to compute
+        )
+    _equal(again["c"], result["c"])
+    _equal(rj.campaign.load(out)["c"], result["c"])
+
+
+def test_foreign_parts_and_bad_cases_are_refused(finished, tmp_path):
+    case, records, src, _ = finished
+    out = tmp_path / "c"
+    shutil.copytree(src, out)
     with pytest.raises(ValueError, match="other parameters, scales, tail, records"):
-        rj.campaign.run([case], records, tmp_path, scales=[1.0, 3.0])
+        rj.campaign.run([case], records, out, scales=[1.0, 3.0])
     other = rj.campaign.Case("c", rj.Block(b=0.2, h=3.0), "s", model="housner")
     with pytest.raises(ValueError, match="other parameters"):
-        rj.campaign.run([other], records, tmp_path, scales=[1.0, 2.0])
+        rj.campaign.run([other], records, out, scales=SMALL_SCALES)
     with pytest.raises(ValueError, match="not a safe file name"):
         rj.campaign.run([rj.campaign.Case("a/b", case.block, "s")], records, tmp_path / "x")
     with pytest.raises(ValueError, match="not among the records"):
@@ -199,13 +319,15 @@ def test_parts_split_by_dt_and_fingerprints_change_with_the_data():
         for k, dt in enumerate([0.005, 0.01, 0.005, 0.005, 0.01])
     ]
     case = rj.campaign.Case("c", block, "s", model="dem", beta=1e-3)
-    tasks = rj.campaign._plan([case], {"s": recs}, np.array([1.0]), 2.0, {"dem": 2, "housner": 2})
-    assert [t.index for t in tasks] == [(0, 2), (3,), (1, 4)]
-    assert {t.t_end for t in tasks} == {recs[-1].duration + 2.0}
+    kw = dict(scales=[1.0], tail=2.0, records_per_task=2)
+    parts = rj.campaign.plan([case], {"s": recs}, **kw)
+    assert [p.index for p in parts] == [(0, 2), (3,), (1, 4)]
+    assert {p.t_end for p in parts} == {recs[-1].duration + 2.0}
+    assert parts[1].filename == f"c/part-0001-{parts[1].fingerprint}.nc"
     recs2 = list(recs)
     recs2[3] = recs[3].scaled(1.0 + 1e-12)
-    tasks2 = rj.campaign._plan([case], {"s": recs2}, np.array([1.0]), 2.0, {"dem": 2, "housner": 2})
-    assert [t.fingerprint for t in tasks] != [t.fingerprint for t in tasks2]
+    parts2 = rj.campaign.plan([case], {"s": recs2}, **kw)
+    assert [p.fingerprint for p in parts] != [p.fingerprint for p in parts2]
 
 
 def test_ida_t_end_runs_a_subset_as_in_the_whole_set():
