@@ -6,7 +6,7 @@ root-find baselines. A script that prints tables, not a test (STYLE.md section 5
                                                    # on 2 shared cores, most of it compiling)
     python benchmarks/bench_calibrate.py --quick   # 1 geometry, 1 target, 2 starts
 
-Criteria (the issue): from each start, ``|beta - beta_grid| / beta_grid <= 2 %`` (grid:
+Criteria: from each start, ``|beta - beta_grid| / beta_grid <= 2 %`` (grid:
 ``method="grid"``, ``n_grid=256``, parabola through the best three points) and
 ``|e_effective - e| <= 2e-3``; a fit takes ``<= 2 s`` after compile (median over the fits).
 Each geometry is compiled first (one fit of each method, untimed), then every fit is timed

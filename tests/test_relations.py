@@ -1,7 +1,7 @@
 """Tests of rockjax.relations: the paper's Eqs. 1-7 and the linearised Housner closed forms.
 
 Independent references: the paper's equations evaluated by hand (the arithmetic is written
-out below), and the numbers of REFERENCES.md Sect. 3.1 (computed there with an independent
+out below), and the numbers of docs/verification.md "Reference facts" (computed with an independent
 solver).
 """
 
@@ -21,9 +21,9 @@ from rockjax.response import e_exp as response_e_exp
 
 # Same float64 expression evaluated two ways: only rounding differs.
 EXACT_RTOL = 1e-12
-# REFERENCES.md prints 6 decimals: half a unit in the last place.
+# docs/verification.md prints 6 decimals: half a unit in the last place.
 REF6_ATOL = 5e-7
-# REFERENCES.md prints the pulse ratios with 5 decimals: half a unit in the last place.
+# docs/verification.md prints the pulse ratios with 5 decimals: half a unit in the last place.
 REF5_ATOL = 5e-6
 # Hand arithmetic below is carried to ~10 significant digits.
 HAND_RTOL = 1e-9
@@ -35,7 +35,7 @@ IMPULSE_RTOL = 1e-6
 FD_RTOL = 1e-6
 FD_STEP = 1e-6
 
-# REFERENCES Sect. 3.1 (alpha there = eta here): eta = 0.2, R = 1 m, and p = 2 exactly.
+# docs/verification.md "Reference facts", Housner numbers: eta = 0.2, R = 1 m, and p = 2 exactly.
 # The tabulated periods for R = 1 m follow from p = sqrt(3 g / 4) with g = 9.81 m/s^2
 # (p = 2.712471 rad/s); the p = 2.712510 printed beside them is inconsistent with them by
 # 1.5e-5 relative, so we rebuild p from R and g = 9.81 instead.
@@ -69,7 +69,7 @@ def test_rayleigh_zeta_formula_and_round_trip():
 
 @pytest.mark.parametrize("eta, expected", [(0.10, 0.985050), (0.20, 0.940796), (0.25, 0.908187)])
 def test_e_housner_matches_references(eta, expected):
-    # REFERENCES Sect. 3.1, e_H numbers.
+    # docs/verification.md "Reference facts", e_H numbers.
     e = rel.e_housner(eta)
     _close(e, expected, atol=REF6_ATOL)
     assert _is_f64(e)
@@ -204,7 +204,7 @@ def test_rocking_energy():
     ],
 )
 def test_free_rocking_period_matches_references(p, eta, ratio, expected):
-    # REFERENCES Sect. 3.1, free-rocking full period, linear formula column.
+    # docs/verification.md "Reference facts", free-rocking full period, linear formula column.
     T = rel.free_rocking_period(p, eta, ratio * eta)
     _close(T, expected, atol=REF6_ATOL)
     assert _is_f64(T)
@@ -213,7 +213,7 @@ def test_free_rocking_period_matches_references(p, eta, ratio, expected):
 
 
 def test_amplitude_after_impacts_matches_references():
-    # REFERENCES Sect. 3.1, decay: eta = 0.2, theta0/eta = 0.5, e = e_H.
+    # docs/verification.md "Reference facts", decay: eta = 0.2, theta0/eta = 0.5, e = e_H.
     eta = 0.2
     n = jnp.arange(1, 5)
     theta_n = rel.amplitude_after_impacts(0.5 * eta, eta, rel.e_housner(eta), n)
@@ -235,7 +235,7 @@ def test_amplitude_after_impacts_inverts_eq6():
     [(0.25, 4.52081), (0.5, 2.54149), (1.0, 1.58198), (2.0, 1.15652), (3.0, 1.05240)],
 )
 def test_rectangular_pulse_matches_references(pt, psi_lin):
-    # REFERENCES Sect. 3.1, rectangular pulse, linearised a_p/(g eta) against p t_p.
+    # docs/verification.md "Reference facts", rectangular pulse, linearised a_p/(g eta) against p t_p.
     eta, p = 0.2, P_R1
     a_p = rel.rectangular_pulse_min_accel(p, eta, pt / p)
     _close(a_p / (G * eta), psi_lin, atol=REF5_ATOL)

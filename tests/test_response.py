@@ -13,7 +13,7 @@ def test_find_peaks_refines_a_sampled_cosine():
 
 
 def test_e_exp_inverts_the_linearised_decay():
-    """Reference: amplitude_after_impacts (REFERENCES 3.1) fed back through Eq. 6."""
+    """Reference: amplitude_after_impacts (docs/verification.md, Housner closed forms) fed back through Eq. 6."""
     eta, theta0, e = 0.2, 0.1, 0.94
     for n in (1, 2, 3):
         th_n = rj.relations.amplitude_after_impacts(theta0, eta, e, n)
