@@ -38,3 +38,17 @@ def check_nonnegative(name: str, value, unit: str, hint: str = "") -> None:
 def check_choice(name: str, value, choices) -> None:
     if value not in choices:
         raise ValueError(f"{name} must be one of {sorted(choices)}; got {name}={value!r}.")
+
+
+def check_scales(scales) -> np.ndarray:
+    """Scale factors [-] as a float array: 1-D, finite, >= 0 and strictly increasing."""
+    s = np.asarray(scales, dtype=float)
+    if s.ndim != 1 or s.size < 1:
+        raise ValueError(f"scales must be a 1-D array of scale factors; got shape {s.shape}.")
+    if not np.all(np.isfinite(s)) or np.any(s < 0):
+        raise ValueError(f"scales must be finite and >= 0 [-]; got scales={s}.")
+    if np.any(np.diff(s) <= 0):
+        raise ValueError(
+            f"scales must be strictly increasing; got scales={s}. Use np.unique(scales)."
+        )
+    return s

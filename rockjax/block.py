@@ -1,5 +1,7 @@
 """The rigid block: geometry, material, and derived rocking quantities."""
 
+from typing import ClassVar
+
 import equinox as eqx
 import jax.numpy as jnp
 
@@ -27,6 +29,9 @@ class Block(eqx.Module):
         E: Young's modulus [Pa], used for the joint stiffness ``j_kn = E/h``.
         nu: Poisson ratio [-], used for ``j_ks = j_kn / (2 (1 + nu))``.
     """
+
+    FIELDS: ClassVar[tuple[str, ...]] = ("b", "h", "length", "rho", "E", "nu")
+    """The names of the fields, in order (for serialising a block)."""
 
     b: ScalarLike
     h: ScalarLike
@@ -91,3 +96,13 @@ class Block(eqx.Module):
     def j_ks(self):
         """Joint shear stiffness per unit area ``j_kn / (2 (1 + nu))`` [Pa/m]."""
         return self.j_kn / (2.0 * (1.0 + self.nu))
+
+    def top_displacement(self, theta):
+        """Horizontal displacement [m] of the top centre relative to the base, rigid rotation
+        ``theta`` [rad] about the pivot corner on the side of its sign:
+        ``sign(theta) b/2 (1 - cos theta) + h sin theta``.
+
+        ``|d|`` grows with ``|theta|`` on ``[0, pi/2]``, so the peak displacement of a run is
+        ``top_displacement(theta_max)``.
+        """
+        return jnp.sign(theta) * 0.5 * self.b * (1.0 - jnp.cos(theta)) + self.h * jnp.sin(theta)

@@ -42,8 +42,9 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ._checks import check_scales
 from .block import Block
-from .ida import DEFAULT_SCALES, MODELS, _check_scales, ida, run_config
+from .ida import DEFAULT_SCALES, MODELS, ida, run_config
 from .motion import GroundMotion
 
 MANIFEST = "campaign.json"
@@ -76,7 +77,7 @@ class Case:
 
     def spec(self) -> dict:
         """The case as JSON-ready values (the block as its fields)."""
-        block = {f: float(getattr(self.block, f)) for f in ("b", "h", "length", "rho", "E", "nu")}
+        block = {f: float(getattr(self.block, f)) for f in Block.FIELDS}
         return dict(
             name=self.name,
             block=block,
@@ -179,7 +180,7 @@ def run(
             retry the rest).
     """
     out = Path(out)
-    scales = _check_scales(scales)
+    scales = check_scales(scales)
     parts = plan(cases, records, scales=scales, tail=tail, records_per_task=records_per_task)
     out.mkdir(parents=True, exist_ok=True)
     manifest = _Manifest.open(out)
@@ -281,7 +282,7 @@ def plan(
     Raises:
         ValueError: on invalid cases, records or part sizes, naming the fix.
     """
-    scales = _check_scales(scales)
+    scales = check_scales(scales)
     tail = float(tail)
     per = records_per_task
     per = dict.fromkeys(MODELS, per) if not isinstance(per, Mapping) else dict(per)

@@ -47,7 +47,7 @@ import numpy as np
 import xarray as xr
 from jaxtyping import ArrayLike, Float
 
-from ._checks import check_choice, check_nonnegative, check_positive
+from ._checks import check_choice, check_nonnegative, check_positive, check_scales
 from ._types import ScalarLike
 from .block import Block
 from .dem import simulate_dem, stable_dt
@@ -60,8 +60,6 @@ MODES = ("two_sided", "one_sided")
 
 DEFAULT_SCALES = np.linspace(0.05, 2.0, 40)
 DEFAULT_SCALES.flags.writeable = False
-
-_BLOCK_FIELDS = ("b", "h", "length", "rho", "E", "nu")
 
 
 def ida(
@@ -123,109 +121,25 @@ def ida(
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
     """
-    block, config, e_used = run_config(block, model=model, mode=mode, beta=beta, e=e, gap=gap)
-    beta, e = config["beta"], config["e"]
-    scales = _check_scales(scales)
-    if not (isinstance(chunk_size, int) and chunk_size >= 1):
-        raise ValueError(f"chunk_size must be an int >= 1; got chunk_size={chunk_size!r}. Use 256.")
-    check_nonnegative("tail", tail, "s", "tail is the free vibration after the records, e.g. 2.0.")
-    gap, tail = float(gap), float(tail)
     devices = list(jax.local_devices() if devices is None else devices)
     if not devices:
         raise ValueError("devices must name at least one device, e.g. jax.local_devices().")
-    place = _placement(devices)
-    groups, pga, t_end = _group_records(records, tail, t_end)
-    n_rec = len(records)
-    dt_bound = config["dt_bound"]
-    # Both simulators split each record step into ceil(dt_rec / dt_bound) equal steps.
-    dt_step = np.zeros(n_rec)
-    plan = []  # (group, chunk of flat run indices)
-    for g in groups:
-        n_runs_g = g.index.size * scales.size
-        size = min(chunk_size, n_runs_g)
-        size = -(-size // len(devices)) * len(devices)  # a multiple of the device count
-        for k in range(math.ceil(n_runs_g / size)):
-            plan.append((g, k, size, n_runs_g))
-        dt_step[g.index] = g.dt / max(1, math.ceil(g.dt / dt_bound - 1e-9))
-    n_runs = n_rec * scales.size
-    grid = {
-        "max_d_over_b": np.full((n_rec, scales.size), np.nan),
-        "max_theta_over_eta": np.full((n_rec, scales.size), np.nan),
-        "collapse": np.zeros((n_rec, scales.size), bool),
-        "status": np.zeros((n_rec, scales.size), np.int32),
-    }
-    start = time.perf_counter()
-    done = 0
-    for n, (g, k, size, n_runs_g) in enumerate(plan):
-        flat = np.arange(k * size, (k + 1) * size)
-        real = flat < n_runs_g
-        flat = np.where(real, flat, 0)  # padding: repeats of the group's first run, dropped
-        local, j = np.divmod(flat, scales.size)
-        ag, ag_v = place.replicated(g.ag), place.replicated(g.ag_v)
-        rec_k, scale_k = place.split(local.astype(np.int32)), place.split(scales[j])
-        out = _run_chunk(block, ag, ag_v, rec_k, scale_k, dt_rec=g.dt, **config)
-        out = jax.device_get(out)
-        for key in grid:
-            grid[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
-        done += int(real.sum())
-        if progress:
-            print(
-                f"rockjax.ida: chunk {n + 1}/{len(plan)} (dt = {g.dt:g} s), {done}/{n_runs} runs, "
-                f"{time.perf_counter() - start:.1f} s",
-                file=sys.stderr,
-                flush=True,
-            )
-    with np.errstate(over="ignore"):  # a huge scale may overflow to inf, as it does in the run
-        pga_scaled = pga[:, None] * scales[None, :]
-
-    dims = ("record", "scale")
-    data_vars = {
-        "max_d_over_b": (dims, grid["max_d_over_b"], _attrs("peak |d|/b, top centre", "1")),
-        "max_theta_over_eta": (dims, grid["max_theta_over_eta"], _attrs("theta_max/eta", "1")),
-        "collapse": (dims, grid["collapse"], {"long_name": "overturned"}),
-        "status": (dims, grid["status"], {"long_name": "0 ok, else STATUS_MESSAGES code"}),
-        "pga_scaled": (dims, pga_scaled, _attrs("scaled peak ground acceleration", "m/s^2")),
-    }
-    names = [r.name for r in records]
-    coords = {
-        "record": names,
-        "scale": ("scale", scales, {"units": "1"}),
-        "name": ("record", names),
-        "pga": ("record", pga, _attrs("peak ground acceleration of the record as run", "m/s^2")),
-        "dt": ("record", np.array([r.dt for r in records], float), _attrs("record step", "s")),
-        "dt_step": ("record", dt_step, _attrs("solver step of the record's runs", "s")),
-        "duration": (
-            "record",
-            np.array([r.duration for r in records], float),
-            _attrs("record duration", "s"),
-        ),
-    }
-    keys = sorted({key for r in records for key, _ in r.meta})
-    for key in keys:
-        coords[f"meta_{key}"] = ("record", [r.metadata.get(key, "") for r in records])
-    from . import __version__  # at call time: the package sets it after importing this module
-
-    attrs = {
-        "model": model,
-        "mode": mode,
-        "b": float(block.b),
-        "h": float(block.h),
-        "length": float(block.length),
-        "rho": float(block.rho),
-        "E": float(block.E),
-        "nu": float(block.nu),
-        "gap": float(gap),
-        "tail": float(tail),
-        "t_end": t_end,
-        "rockjax_version": __version__,
-        "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-    }
-    if model == "dem":
-        attrs["beta"] = beta
-    else:
-        attrs["e"] = e_used
-        attrs["e_source"] = "given" if e is not None else "default (Eq. 2 or Eq. 5)"
-    return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+    plan = _plan(
+        block,
+        records,
+        scales,
+        model=model,
+        mode=mode,
+        beta=beta,
+        e=e,
+        gap=gap,
+        tail=tail,
+        t_end=t_end,
+        chunk_size=chunk_size,
+        n_devices=len(devices),
+    )
+    grids = _run(plan, _placement(devices), progress)
+    return _assemble(plan, grids)
 
 
 def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.0):
@@ -332,6 +246,160 @@ def collapse_intervals(ds: xr.Dataset) -> CollapseIntervals:
     return CollapseIntervals(intervals=intervals, lowest=da)
 
 
+# ----------------------------------------------------------------------------- plan, run, assemble
+
+
+class _Chunk(NamedTuple):
+    """One compiled batch: runs ``k * size ... (k + 1) * size - 1`` of a ``dt`` group (its
+    runs flattened record-major over the scales; indices past ``n_runs`` are padding)."""
+
+    group: _Group
+    k: int
+    size: int
+    n_runs: int
+
+
+class _Plan(NamedTuple):
+    """Everything :func:`ida` runs and labels, checked: the block, the run parameters, the
+    records grouped by ``dt`` and the chunks."""
+
+    block: Block
+    config: dict
+    e_used: float | None
+    e_given: bool
+    scales: np.ndarray
+    records: Sequence[GroundMotion]
+    groups: list
+    chunks: list
+    pga: np.ndarray  # per record, as run [m/s^2]
+    dt_step: np.ndarray  # solver step per record [s]
+    tail: float
+    t_end: float
+
+
+def _plan(
+    block, records, scales, *, model, mode, beta, e, gap, tail, t_end, chunk_size, n_devices
+) -> _Plan:
+    """Check the inputs of :func:`ida` and cut its runs into chunks (no run yet)."""
+    block, config, e_used = run_config(block, model=model, mode=mode, beta=beta, e=e, gap=gap)
+    scales = check_scales(scales)
+    if not (isinstance(chunk_size, int) and chunk_size >= 1):
+        raise ValueError(f"chunk_size must be an int >= 1; got chunk_size={chunk_size!r}. Use 256.")
+    check_nonnegative("tail", tail, "s", "tail is the free vibration after the records, e.g. 2.0.")
+    tail = float(tail)
+    groups, pga, t_end = _group_records(records, tail, t_end)
+    # Both simulators split each record step into ceil(dt_rec / dt_bound) equal steps.
+    dt_step = np.zeros(len(records))
+    chunks = []
+    for g in groups:
+        n_runs = g.index.size * scales.size
+        size = min(chunk_size, n_runs)
+        size = -(-size // n_devices) * n_devices  # a multiple of the device count
+        chunks += [_Chunk(g, k, size, n_runs) for k in range(math.ceil(n_runs / size))]
+        dt_step[g.index] = g.dt / max(1, math.ceil(g.dt / config["dt_bound"] - 1e-9))
+    return _Plan(
+        block,
+        config,
+        e_used,
+        e is not None,
+        scales,
+        records,
+        groups,
+        chunks,
+        pga,
+        dt_step,
+        tail,
+        t_end,
+    )
+
+
+def _run(plan: _Plan, place: _Placement, progress: bool) -> dict[str, np.ndarray]:
+    """Run the plan's chunks; the EDPs on the (record, scale) grid."""
+    n_rec, n_scale = len(plan.records), plan.scales.size
+    grids = {
+        "max_d_over_b": np.full((n_rec, n_scale), np.nan),
+        "max_theta_over_eta": np.full((n_rec, n_scale), np.nan),
+        "collapse": np.zeros((n_rec, n_scale), bool),
+        "status": np.zeros((n_rec, n_scale), np.int32),
+    }
+    start = time.perf_counter()
+    done = 0
+    for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
+        flat = np.arange(k * size, (k + 1) * size)
+        real = flat < n_runs_g
+        flat = np.where(real, flat, 0)  # padding: repeats of the group's first run, dropped
+        local, j = np.divmod(flat, n_scale)
+        ag, ag_v = place.replicated(g.ag), place.replicated(g.ag_v)
+        rec_k, scale_k = place.split(local.astype(np.int32)), place.split(plan.scales[j])
+        out = _run_chunk(plan.block, ag, ag_v, rec_k, scale_k, dt_rec=g.dt, **plan.config)
+        out = jax.device_get(out)
+        for key in grids:
+            grids[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
+        done += int(real.sum())
+        if progress:
+            print(
+                f"rockjax.ida: chunk {n + 1}/{len(plan.chunks)} (dt = {g.dt:g} s), "
+                f"{done}/{n_rec * n_scale} runs, {time.perf_counter() - start:.1f} s",
+                file=sys.stderr,
+                flush=True,
+            )
+    return grids
+
+
+def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
+    """The labelled Dataset of :func:`ida` from the plan and the EDP grids."""
+    records, block, config = plan.records, plan.block, plan.config
+    with np.errstate(over="ignore"):  # a huge scale may overflow to inf, as it does in the run
+        pga_scaled = plan.pga[:, None] * plan.scales[None, :]
+    dims = ("record", "scale")
+    data_vars = {
+        "max_d_over_b": (dims, grids["max_d_over_b"], _attrs("peak |d|/b, top centre", "1")),
+        "max_theta_over_eta": (dims, grids["max_theta_over_eta"], _attrs("theta_max/eta", "1")),
+        "collapse": (dims, grids["collapse"], {"long_name": "overturned"}),
+        "status": (dims, grids["status"], {"long_name": "0 ok, else STATUS_MESSAGES code"}),
+        "pga_scaled": (dims, pga_scaled, _attrs("scaled peak ground acceleration", "m/s^2")),
+    }
+    names = [r.name for r in records]
+    coords = {
+        "record": names,
+        "scale": ("scale", plan.scales, {"units": "1"}),
+        "name": ("record", names),
+        "pga": (
+            "record",
+            plan.pga,
+            _attrs("peak ground acceleration of the record as run", "m/s^2"),
+        ),
+        "dt": ("record", np.array([r.dt for r in records], float), _attrs("record step", "s")),
+        "dt_step": ("record", plan.dt_step, _attrs("solver step of the record's runs", "s")),
+        "duration": (
+            "record",
+            np.array([r.duration for r in records], float),
+            _attrs("record duration", "s"),
+        ),
+    }
+    keys = sorted({key for r in records for key, _ in r.meta})
+    for key in keys:
+        coords[f"meta_{key}"] = ("record", [r.metadata.get(key, "") for r in records])
+    from . import __version__  # at call time: the package sets it after importing this module
+
+    attrs = {
+        "model": config["model"],
+        "mode": config["mode"],
+        **{field: float(getattr(block, field)) for field in Block.FIELDS},
+        "gap": config["gap"],
+        "tail": plan.tail,
+        "t_end": plan.t_end,
+        "rockjax_version": __version__,
+        "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+    }
+    if config["model"] == "dem":
+        attrs["beta"] = config["beta"]
+    else:
+        attrs["e"] = plan.e_used
+        attrs["e_source"] = "given" if plan.e_given else "default (Eq. 2 or Eq. 5)"
+    return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+
+
 # ----------------------------------------------------------------------------- helpers
 
 
@@ -345,7 +413,7 @@ def _scalar_block(block: Block) -> Block:
     if not isinstance(block, Block):
         raise ValueError(f"block must be a rockjax.Block; got {type(block)}.")
     values = {}
-    for field in _BLOCK_FIELDS:
+    for field in Block.FIELDS:
         v = np.asarray(getattr(block, field), dtype=float)
         if v.size != 1:
             raise ValueError(
@@ -353,19 +421,6 @@ def _scalar_block(block: Block) -> Block:
             )
         values[field] = float(v.reshape(()))
     return Block(**values)
-
-
-def _check_scales(scales) -> np.ndarray:
-    s = np.asarray(scales, dtype=float)
-    if s.ndim != 1 or s.size < 1:
-        raise ValueError(f"scales must be a 1-D array of scale factors; got shape {s.shape}.")
-    if not np.all(np.isfinite(s)) or np.any(s < 0):
-        raise ValueError(f"scales must be finite and >= 0 [-]; got scales={s}.")
-    if np.any(np.diff(s) <= 0):
-        raise ValueError(
-            f"scales must be strictly increasing; got scales={s}. Use np.unique(scales)."
-        )
-    return s
 
 
 class _Placement(NamedTuple):
@@ -464,8 +519,7 @@ def _run_chunk(block, ag, ag_v, rec_idx, scale, *, model, mode, beta, e, gap, dt
             d_max = r.extras["d_max"]
         else:
             r = simulate_housner(block, motion, e=e, mode=mode, dt=dt_bound, throw=False)
-            th = r.theta_max
-            d_max = 0.5 * block.b * (1.0 - jnp.cos(th)) + block.h * jnp.sin(th)
+            d_max = block.top_displacement(r.theta_max)
         ok = r.status == STATUS_OK
         return {
             "max_d_over_b": jnp.where(ok, d_max / block.b, jnp.nan),

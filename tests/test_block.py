@@ -42,3 +42,15 @@ def test_block_is_a_pytree_for_vmap_and_grad():
 def test_invalid_geometry_is_refused(kw, match):
     with pytest.raises(ValueError, match=match):
         rj.Block(**kw)
+
+
+@pytest.mark.parametrize("theta", [-0.3, -1e-3, 0.0, 2e-2, 0.3])
+def test_top_displacement_is_the_rotated_top_centre(theta):
+    """Reference: the top centre (body coordinates relative to the pivot corner) rotated by a
+    rotation matrix about that corner; the pivot is the +x corner for theta > 0."""
+    blk = rj.Block(b=0.25, h=3.0)
+    side = 1.0 if theta >= 0 else -1.0
+    rel = np.array([-side * 0.125, 3.0])  # top centre minus pivot corner, at rest
+    c, s = np.cos(theta), np.sin(theta)
+    rotated = np.array([[c, s], [-s, c]]) @ rel  # theta > 0 moves the top toward +x
+    np.testing.assert_allclose(blk.top_displacement(theta), rotated[0] - rel[0], atol=1e-15)
