@@ -24,6 +24,17 @@ differentiable loss minimised with L-BFGS (``optax.lbfgs``, zoom line search):
 Baselines (``method=``): ``"grid"`` (dense vmapped grid, parabola through the best three
 points) and ``"root"`` (Illinois false position on the signed log-energy gap, monotone in
 ``beta``).
+
+**What a result promises.** Before any optimisation, a target whose Housner reference has no
+bounce keeping :data:`MIN_ENERGY_RATIO` of its release energy (the loss would be identically
+zero), ``n_bounces < 1``, a DEM that keeps no such bounce at an end of the search (the
+reachable range is undefined) and an unreachable target raise ``ValueError`` with the fix.
+After it, every method (``lbfgs``, its false-position finish, ``grid``, ``root``; and
+:func:`fit_e`) reports ``converged=True`` only if the target is met within a stated tolerance
+(:data:`E_TOL` on the DEM's own ``e``, :data:`BOUNCE_BANDS` for facades), measured on the DEM's
+saved history by a NumPy peak finder independent of the loss, with every number finite;
+otherwise ``converged=False`` and ``reason`` says what was missed. The mode's default target
+(:func:`default_target`) is ``"bounces"`` for facades.
 """
 
 from __future__ import annotations
@@ -54,7 +65,19 @@ BOUNCE_FRACTIONS = (0.68, 0.80, 1.00)
 ``|e_ISR|``, the middles of the measured 64-72 %, 74-86 % and ~100 % (the paper, Sect. 2.2,
 from Sorrentino et al.'s tests)."""
 
+BOUNCE_BANDS = ((0.64, 0.72), (0.74, 0.86), (0.925, 1.075))
+"""Tolerance of ``target="bounces"``: ``e_exp`` of bounces 1-3 over ``|e_ISR|`` must lie in these
+bands for ``converged=True``: the measured 64-72 % and 74-86 % (the paper, Sect. 2.2) and, for
+the third bounce (measured "similar to ``e_ISR``", no band given), the wider of the two
+measured half-widths, +-7.5 %, around 100 %."""
+
+E_TOL = 2e-3
+"""Tolerance of ``target="e"`` (and of :func:`fit_e`): ``converged=True`` needs the DEM's own
+restitution, measured from peaks found in NumPy on the saved history (an independent path from
+the loss), within ``E_TOL`` of the target [-]."""
+
 MIN_ENERGY_RATIO = 0.02
+"""A bounce informs the fit only if it keeps at least this fraction of the release energy."""
 GAP_TOL = 1e-4
 """``fit_beta`` (``target="e"``): an L-BFGS result whose signed gap ``|log e_DEM - log e|``
 exceeds this is finished by false position on the bracketed gap."""
@@ -72,8 +95,10 @@ class Calibration:
             ``target="bounces"``.
         e_effective: The DEM's own restitution at ``beta``: ``sqrt`` of its mean energy ratio
             per impact over the compared bounces (least squares on ``log U_k``), from peaks
-            found in NumPy on the saved history [-].
-        e_exp: Eq. (6) of the DEM's bounces 1-3 [-] (first release amplitude).
+            found in NumPy on the saved history [-]; NaN if no bounce keeps
+            :data:`MIN_ENERGY_RATIO` of the release energy.
+        e_exp: Eq. (6) of the DEM's bounces 1-3 [-] (first release amplitude; NumPy peaks as
+            for ``e_effective``; NaN for a bounce that did not happen).
         loss: Final loss [-]: ``fit_beta`` with ``target="e"``: the squared signed gap
             ``(log e_DEM - log e)^2`` (least squares over the compared bounces); ``"bounces"``:
             the mean square log gap of ``e_exp,1-3``; ``fit_e``: the peak loss.
@@ -84,8 +109,13 @@ class Calibration:
         history: Per iteration: ``"beta"`` [s] and ``"loss"`` [-] (NumPy arrays).
         n_simulations: DEM (or Housner, for ``fit_e``) runs spent, per release amplitude.
         n_iterations: Optimiser iterations.
-        converged: Whether the stopping rule was met before ``max_iter``.
-        e_range: Reachable ``(e at beta_max, e at beta = 0)`` [-] (``fit_beta``).
+        converged: True only if the target is met within its stated tolerance and every
+            number is finite: ``target="e"`` and :func:`fit_e`: ``|e_effective - e| <=``
+            :data:`E_TOL`; ``target="bounces"``: each ``e_exp`` in its band of
+            :data:`BOUNCE_BANDS`; and the method's stopping rule was met before ``max_iter``.
+        reason: Empty when ``converged``; else why not, in words.
+        e_range: Reachable ``(e at beta_max, e at beta = 0)`` [-] (``fit_beta`` with
+            ``target="e"``; None otherwise). Both ends finite (else ``fit_beta`` raises).
         beta_max: Upper end of the searched range [s].
         method: ``"lbfgs"``, ``"grid"`` or ``"root"``.
         root_finish: ``method="lbfgs"`` only: True when L-BFGS stopped with
@@ -113,6 +143,7 @@ class Calibration:
     dem: Response
     housner: Response | None
     root_finish: bool = False
+    reason: str = ""
 
     @property
     def e_target(self):
@@ -410,12 +441,22 @@ def _make_problem(
     block, *, e, target, mode, theta0, n_bounces, beta_max, dashpot, gap, onset
 ) -> tuple[_Problem, list]:
     check_choice("mode", mode, MODES)
+    one_sided = mode == "one_sided"
+    defaulted = target is None
+    if defaulted:
+        target = default_target(mode)
     check_choice("target", target, ("e", "bounces"))
     block = _concrete_block(block)
     th = _release(block, theta0)
-    one_sided = mode == "one_sided"
     if n_bounces is None:
         n_bounces = 3 if (one_sided or target == "bounces") else 8
+    elif isinstance(n_bounces, bool) or not (
+        isinstance(n_bounces, (int, np.integer)) and n_bounces >= 1
+    ):
+        raise ValueError(
+            f"n_bounces (impacts compared) must be an int >= 1; got {n_bounces!r}. Leave it "
+            "None for the default (8 two-sided, 3 one-sided)."
+        )
     if target == "bounces":
         if not one_sided:
             raise ValueError(
@@ -423,8 +464,14 @@ def _make_problem(
                 "fractions of e_ISR); use mode='one_sided', or target='e' for a parapet."
             )
         if e is not None:
+            if defaulted:
+                raise ValueError(
+                    "mode='one_sided' calibrates to the facade bounce targets by default "
+                    "(target='bounces', which takes no e); drop e, or pass target='e' to match "
+                    "Housner's one-sided rocking with this e instead."
+                )
             raise ValueError("target='bounces' takes no e (its targets are fractions of e_ISR).")
-        n_bounces = max(n_bounces, 3)
+        n_bounces = max(int(n_bounces), 3)
     elif e is None:
         raise ValueError(
             "fit_beta needs the target restitution e (e.g. e=rj.e_housner(block), Eq. 2), or "
@@ -443,7 +490,12 @@ def _make_problem(
         hi = 1.0
         if not (0.0 < abs(e_val) <= hi):
             raise ValueError(f"e (restitution, dimensionless) must be in (0, 1]; got e={e_val}.")
+        # Housner's bounce k keeps e^(2k) of the release energy (impact map x flight energy
+        # conservation): refuse an uninformative e before running anything, then check the runs
+        if e_val**2 < MIN_ENERGY_RATIO:
+            _check_informative(None, e_val, th, mode, n_bounces)
         ref, resps = _housner_peaks(block, e_val, th, mode, n_bounces, duration)
+        _check_informative(ref, e_val, th, mode, n_bounces)
         targets = jnp.asarray([abs(e_val)])
     else:
         ref = metrics.Peaks(
@@ -474,6 +526,40 @@ def _make_problem(
     return problem, resps
 
 
+def default_target(mode: str) -> str:
+    """The calibration target of a mode: ``"e"`` two-sided, ``"bounces"`` one-sided.
+
+    A facade's one-sided Housner rocking with ``e = |e_ISR|`` keeps about 20 % of its energy per
+    impact, so at most two bounces inform an ``e`` fit, and the measured facade bounces are not
+    Housner's (their ``e_exp`` rises from ~68 % to ~100 % of ``|e_ISR|``, :data:`BOUNCE_FRACTIONS`):
+    the bounce targets are what a facade is calibrated to.
+    """
+    check_choice("mode", mode, MODES)
+    return "bounces" if mode == "one_sided" else "e"
+
+
+def _check_informative(ref: metrics.Peaks | None, e, th, mode, n_bounces):
+    """Refuse a target ``e`` whose Housner reference has no bounce that keeps
+    :data:`MIN_ENERGY_RATIO` of its release energy: the loss would be identically zero."""
+    if ref is not None:
+        lu = np.asarray(ref.log_energy)
+        use = np.asarray(ref.valid) & (lu - lu[:, :1] >= math.log(MIN_ENERGY_RATIO))
+        if np.all(use[:, 1:].sum(axis=1) > 0):
+            return
+    fix = (
+        "use target='bounces' (the facade default)"
+        if mode == "one_sided"
+        else "raise e, or calibrate to a measured e"
+    )
+    raise ValueError(
+        f"target e={e:.4g} gives no informative bounce: Housner's free rocking with it from "
+        f"theta0={np.round(th, 5).tolist()} rad keeps less than {100 * MIN_ENERGY_RATIO:g} % "
+        f"of the release energy at each of its first {n_bounces} impacts (bounce k keeps e^(2k), "
+        f"so e >= {math.sqrt(MIN_ENERGY_RATIO):.3f} is needed), and the calibration loss would "
+        f"be identically zero. {fix[0].upper() + fix[1:]}."
+    )
+
+
 def _range_message(problem, g0, g1, beta_max, e_range):
     if problem.kind == "e":
         e = float(problem.targets[0])
@@ -483,6 +569,8 @@ def _range_message(problem, g0, g1, beta_max, e_range):
             if problem.dashpot == "clipped"
             else ", or widen beta_max for lower e"
         )
+        if problem.mode == "one_sided":
+            fix += "; or use target='bounces' (the facade default)"
         return (
             f"target e={e:.4g} is not reachable by this DEM block: over beta in "
             f"[0, {beta_max:.4g}] s its restitution spans e = {lo:.4f} (beta_max) to {hi:.4f} "
@@ -493,6 +581,40 @@ def _range_message(problem, g0, g1, beta_max, e_range):
         f"bracketed over beta in [0, {beta_max:.4g}] s (mean log-gap {g0:+.3g} at beta = 0, "
         f"{g1:+.3g} at beta_max); widen beta_max."
     )
+
+
+def _check_range(problem, scan, own_s, beta_max):
+    """The reachable ``(e(beta_max), e(0))`` of a ``target="e"`` fit (None for bounces), or a
+    ValueError where the DEM keeps no informative bounce at an end (the range is undefined)."""
+    e_lo, e_hi = math.exp(float(own_s[-1])), math.exp(float(own_s[0]))
+    one_sided = problem.mode == "one_sided"
+    lost = (
+        f"keeps no bounce with {100 * MIN_ENERGY_RATIO:g} % of its release energy within "
+        f"{problem.n_bounces} impacts"
+    )
+    if not np.isfinite(e_hi):
+        raise ValueError(
+            f"this DEM block {lost} even at beta = 0 (or a run failed): nothing to calibrate. "
+            "Check the block (E, rho), the release theta0 and n_bounces"
+            + (", or the gap." if one_sided else ".")
+        )
+    if problem.kind != "e":
+        return None
+    if not np.isfinite(e_lo):
+        ok = [float(b) for b, o in zip(scan, own_s) if np.isfinite(o)]
+        where = (
+            f" (the scan saw bounces up to beta = {max(ok):.4g} s; the step is sized for "
+            "beta_max, so aim a little lower)"
+            if len(ok) > 1
+            else ""
+        )
+        raise ValueError(
+            f"the reachable range of e is undefined at beta_max={beta_max:.4g} s: the DEM block "
+            f"{lost} there (its restitution is below {math.sqrt(MIN_ENERGY_RATIO):.3f}). Lower "
+            f"beta_max{where}"
+            + (", or use target='bounces' (the facade default)." if one_sided else ".")
+        )
+    return (e_lo, e_hi)
 
 
 def _check_reachable(problem, g0, g1, beta_max, e_range):
@@ -511,7 +633,7 @@ def fit_beta(
     block: Block,
     e=None,
     *,
-    target: str = "e",
+    target: str | None = None,
     mode: str = "two_sided",
     theta0=None,
     n_bounces: int | None = None,
@@ -531,9 +653,11 @@ def fit_beta(
     Args:
         block: The block (concrete floats).
         e: Target restitution [-] (two-sided ``e``; one-sided ``|e|``), e.g. ``rj.e_housner``
-            (Eq. 2) or a measured value.
+            (Eq. 2) or a measured value (``target="e"`` only).
         target: ``"e"`` (match Housner with ``e``) or ``"bounces"`` (facades: match ``e_exp``
-            of bounces 1-3 to :data:`BOUNCE_FRACTIONS` of ``|e_ISR|``, Eq. 5-6).
+            of bounces 1-3 to :data:`BOUNCE_FRACTIONS` of ``|e_ISR|``, Eq. 5-6); default
+            (None) the mode's, :func:`default_target`: ``"e"`` two-sided, ``"bounces"``
+            one-sided.
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
         theta0: Release rotation(s) [rad] (default ``0.5 eta``); several are averaged.
         n_bounces: Impacts compared (default 8 two-sided, 3 one-sided).
@@ -547,10 +671,17 @@ def fit_beta(
 
     Returns:
         A :class:`Calibration` (``.beta``, ``.e_effective``, ``.loss``, ``.history``,
-        ``.n_simulations``, ...).
+        ``.n_simulations``, ...). ``.converged`` is True only when the target is met within
+        its tolerance (:data:`E_TOL`, :data:`BOUNCE_BANDS`), measured on the DEM's history
+        independently of the loss; otherwise ``.reason`` says what was missed.
 
     Raises:
-        ValueError: bad input, or a target outside the reachable range (the message gives it).
+        ValueError: bad input (e.g. ``n_bounces < 1``), a target with no informative bounce
+            (Housner's bounces keep less than :data:`MIN_ENERGY_RATIO` of the release energy:
+            the loss would be identically zero), a DEM block that keeps no such bounce at
+            ``beta = 0`` or (``target="e"``) at ``beta_max`` (the reachable range is undefined),
+            or a target outside the reachable range. The message gives the range and the fix.
+            All are raised before the optimisation.
     """
     check_choice("method", method, METHODS)
     t_start = time.perf_counter()
@@ -574,7 +705,7 @@ def fit_beta(
         scan = np.array([0.0, bmax])
     loss_s, gap_s, own_s, _ = map(np.asarray, _stats_batch(problem, jnp.asarray(scan)))
     n_sims = scan.size
-    e_range = (math.exp(float(own_s[-1])), math.exp(float(own_s[0])))
+    e_range = _check_range(problem, scan, own_s, bmax)
     _check_reachable(problem, float(gap_s[0]), float(gap_s[-1]), bmax, e_range)
     slope = max((gap_s[0] - gap_s[-1]) / bmax, 1e-12)
     problem = eqx.tree_at(lambda p: p.scale, problem, jnp.asarray(slope))
@@ -740,6 +871,7 @@ def _finish(
     stats = _stats_batch(problem, jnp.asarray([beta]))
     loss, peak = float(np.asarray(stats[0])[0]), float(np.asarray(stats[3])[0])
     e_eff = _e_effective_np(dem, problem.n_bounces, problem.mode)
+    e3 = _e_exp_np(dem, problem.mode)
     h_err = None
     e_val = None
     housner = h_resps[0] if h_resps else None
@@ -748,11 +880,21 @@ def _finish(
         t_last = _last_compared_time(housner, problem)
         w = (np.asarray(dem.t) <= t_last).astype(float)
         h_err = float(metrics.history_error(dem.theta, housner.theta, w))
+        missed = _e_missed(e_val, e_eff)
+        if missed and abs(float(np.asarray(stats[1])[0])) <= GAP_TOL:
+            missed[-1] += (
+                ", although the loss is met on the bounces that inform Housner's reference: "
+                "the DEM's restitution changes from bounce to bounce (e_exp 1-3 = "
+                f"{np.round(e3, 4).tolist()}), so no single beta gives both"
+            )
+    else:
+        missed = _bounces_missed(e3, float(e_isr(problem.block)))
+    converged, reason = _verdict(converged, missed, beta=beta, loss=loss)
     return Calibration(
         beta=float(beta),
         e=e_val,
         e_effective=e_eff,
-        e_exp=_e_exp_np(dem, problem),
+        e_exp=e3,
         loss=loss,
         peak_loss=peak,
         history_error=h_err,
@@ -767,7 +909,47 @@ def _finish(
         root_finish=bool(root_finish),
         dem=dem,
         housner=housner,
+        reason=reason,
     )
+
+
+def _e_missed(e_target: float, e_eff: float) -> list[str]:
+    """Why a restitution target is not met (empty: met within :data:`E_TOL`)."""
+    if not np.isfinite(e_eff):
+        return [
+            f"the DEM keeps no bounce with {100 * MIN_ENERGY_RATIO:g} % of its release energy "
+            "at the result (e_effective is NaN)"
+        ]
+    if abs(e_eff - e_target) > E_TOL:
+        return [
+            f"the DEM's own e_effective = {e_eff:.5f} misses the target e = {e_target:.5f} by "
+            f"{abs(e_eff - e_target):.2g} > E_TOL = {E_TOL:g}"
+        ]
+    return []
+
+
+def _bounces_missed(e3: np.ndarray, e_isr_value: float) -> list[str]:
+    """Why the facade bounce targets are not met (empty: each ``e_exp`` in its band)."""
+    out = []
+    for n, (val, (lo, hi)) in enumerate(zip(e3, BOUNCE_BANDS), start=1):
+        r = val / abs(e_isr_value)
+        if not np.isfinite(r):
+            out.append(f"bounce {n} did not happen")
+        elif not lo <= r <= hi:
+            out.append(
+                f"bounce {n}: e_exp = {100 * r:.1f} % of |e_ISR|, outside the band "
+                f"{100 * lo:g}-{100 * hi:g} %"
+            )
+    return out
+
+
+def _verdict(stopped: bool, missed: list[str], **numbers) -> tuple[bool, str]:
+    """``(converged, reason)``: the stopping rule met, every number finite, the target met."""
+    why = [f"{k} is not finite" for k, v in numbers.items() if not np.isfinite(v)]
+    why += missed
+    if not stopped:
+        why.append("the stopping rule was not met within max_iter")
+    return not why, "; ".join(why)
 
 
 def _last_compared_time(resp: Response, problem: _Problem) -> float:
@@ -780,22 +962,48 @@ def _last_compared_time(resp: Response, problem: _Problem) -> float:
     return float(np.asarray(pk.t)[keep].max())
 
 
+def _bounces_np(resp: Response, mode: str) -> np.ndarray:
+    """Bounce amplitudes ``|theta_k|``, ``k >= 1`` [rad], found in NumPy on the saved history,
+    without impact detection (an independent path from the loss's
+    :func:`rockjax.metrics.peaks`): the local maxima of ``y = |theta|`` (one-sided
+    ``max(theta, 0)``: the rebounds), where two neighbours whose valley stays above half the
+    smaller one are one flight (penalty-contact wobble on it; the larger is kept), each
+    refined by a parabola through three samples and kept only if it exceeds
+    ``metrics.RELATIVE_BOUNCE`` of the previous kept one (the release first) and twice the
+    impact threshold (micro-vibration in contact is no bounce)."""
+    th = np.asarray(resp.theta, float)
+    y = np.abs(th) if mode == "two_sided" else np.maximum(th, 0.0)
+    idx = np.flatnonzero((y[1:-1] > y[:-2]) & (y[1:-1] >= y[2:])) + 1
+    merged: list[int] = []
+    for i in idx:
+        if merged and y[merged[-1] : i + 1].min() > 0.5 * min(y[merged[-1]], y[i]):
+            if y[i] > y[merged[-1]]:
+                merged[-1] = i
+        else:
+            merged.append(i)
+    prev = abs(float(th[0]))
+    floor = 2.0 * _hysteresis(mode) * float(resp.eta)
+    out = []
+    for i in merged:
+        y0, y1, y2 = y[i - 1], y[i], y[i + 1]
+        den = y0 - 2.0 * y1 + y2
+        s = min(max(0.5 * (y0 - y2) / den, -1.0), 1.0) if den < 0 else 0.0
+        a = y1 - 0.25 * (y0 - y2) * s
+        if a > max(floor, metrics.RELATIVE_BOUNCE * prev):
+            out.append(a)
+            prev = a
+    return np.asarray(out, float)
+
+
 def _e_effective_np(resp: Response, n_bounces: int, mode: str) -> float:
-    """The DEM's restitution from its own peaks, found in NumPy (an independent path from the
-    loss): least squares of ``log U_k - log U_0`` on ``2k`` over bounces keeping >= 2 % energy."""
-    t = np.asarray(resp.t)
-    th = np.asarray(resp.theta)
+    """The DEM's restitution from its own peaks, found in NumPy (:func:`_bounces_np`): least
+    squares of ``log U_k - log U_0`` on ``2k`` over the first ``n_bounces`` bounces that keep
+    :data:`MIN_ENERGY_RATIO` of the release energy; NaN if none does."""
     eta = float(resp.eta)
-    if mode == "one_sided":
-        pk = metrics.peaks(t, th, eta, n_bounces, mode, _hysteresis(mode))
-        amp = np.asarray(pk.amplitude)[1:][np.asarray(pk.valid)[1:]]
-    else:
-        _, amp = resp.peaks()
-    u0 = math.cos(eta - abs(th[0])) - math.cos(eta)
-    k = np.arange(1, min(n_bounces, amp.size) + 1)
-    if k.size == 0:
-        return float("nan")
-    u = np.cos(eta - amp[: k.size]) - math.cos(eta)
+    amp = _bounces_np(resp, mode)[:n_bounces]
+    u0 = math.cos(eta - abs(float(np.asarray(resp.theta)[0]))) - math.cos(eta)
+    k = np.arange(1, amp.size + 1)
+    u = np.cos(eta - amp) - math.cos(eta)
     keep = u / u0 >= MIN_ENERGY_RATIO
     if not np.any(keep):
         return float("nan")
@@ -804,13 +1012,13 @@ def _e_effective_np(resp: Response, n_bounces: int, mode: str) -> float:
     return float(np.exp(np.sum(x * y) / np.sum(x * x)))
 
 
-def _e_exp_np(resp: Response, problem: _Problem) -> np.ndarray:
-    """Eq. (6) of bounces 1-3 with the bounces found as in the loss."""
-    pk = metrics.peaks(resp.t, resp.theta, resp.eta, 3, problem.mode, problem.hysteresis)
-    amp = np.asarray(pk.amplitude)
-    ok = np.asarray(pk.valid)
-    out = np.asarray(e_exp(amp[1:4], amp[0], float(resp.eta), np.arange(1, 4)))
-    return np.where(ok[1:4], out, np.nan)
+def _e_exp_np(resp: Response, mode: str) -> np.ndarray:
+    """Eq. (6) of bounces 1-3 from :func:`_bounces_np` (NaN for a bounce that did not happen)."""
+    amp = _bounces_np(resp, mode)[:3]
+    th0 = abs(float(np.asarray(resp.theta)[0]))
+    out = np.full(3, np.nan)
+    out[: amp.size] = np.asarray(e_exp(amp, th0, float(resp.eta), np.arange(1, amp.size + 1)))
+    return out
 
 
 def e_effective(
@@ -935,7 +1143,14 @@ def fit_e(
     start is already close; the iterations confirm it on the simulated responses).
 
     Returns:
-        A :class:`Calibration` whose ``e`` is the fitted Housner restitution.
+        A :class:`Calibration` whose ``e`` is the fitted Housner restitution; ``converged``
+        only if it is within :data:`E_TOL` of the DEM's own ``e_effective`` (NumPy peaks) and
+        finite (else ``reason`` says why: e.g. a DEM whose restitution changes from bounce to
+        bounce more than one Housner ``e`` can follow).
+
+    Raises:
+        ValueError: bad input (e.g. ``n_bounces < 1``), a failed DEM run, or a DEM that keeps
+            no bounce with :data:`MIN_ENERGY_RATIO` of its release energy (nothing to match).
     """
     t_start = time.perf_counter()
     if not (np.isfinite(beta) and beta >= 0):
@@ -985,13 +1200,16 @@ def fit_e(
     )
     t_last = _last_compared_time(housner, problem)
     w = (np.asarray(dem.t) <= t_last).astype(float)
+    e_eff = _e_effective_np(dem, problem.n_bounces, mode)
+    loss = float(_housner_loss(v, eproblem))
+    converged, reason = _verdict(converged, _e_missed(e_fit, e_eff), e=e_fit, loss=loss)
     return Calibration(
         beta=float(beta),
         e=e_fit,
-        e_effective=_e_effective_np(dem, problem.n_bounces, mode),
-        e_exp=_e_exp_np(dem, problem),
-        loss=float(_housner_loss(v, eproblem)),
-        peak_loss=float(_housner_loss(v, eproblem)),
+        e_effective=e_eff,
+        e_exp=_e_exp_np(dem, mode),
+        loss=loss,
+        peak_loss=loss,
         history_error=float(metrics.history_error(dem.theta, housner.theta, w)),
         history={"e": np.asarray(hist_e[1:]), "loss": np.asarray(hist_l)},
         n_simulations=n_sims,
@@ -1003,12 +1221,16 @@ def fit_e(
         seconds=time.perf_counter() - t_start,
         dem=dem,
         housner=housner,
+        reason=reason,
     )
 
 
 __all__: list[Any] = [
+    "BOUNCE_BANDS",
     "BOUNCE_FRACTIONS",
     "Calibration",
+    "E_TOL",
+    "default_target",
     "HistoryFit",
     "e_effective",
     "fit_beta",
@@ -1074,7 +1296,10 @@ class HistoryFit:
         b: Fitted rocking width [m] (e.g. a pivot moved inward by damaged corners).
         block: The nominal block with ``b`` replaced.
         loss: Final loss [-]. history: ``"beta"``, ``"b"``, ``"loss"`` per iteration.
-        n_simulations, n_iterations, converged, seconds: as in :class:`Calibration`.
+        n_simulations, n_iterations, seconds: as in :class:`Calibration`.
+        converged: True only if the stopping rule was met and the loss and both parameters
+            are finite. A measured history has no exact target: the residual is ``loss``.
+        reason: Empty when ``converged``; else why not.
         dem: DEM response at the fit.
     """
 
@@ -1088,11 +1313,16 @@ class HistoryFit:
     converged: bool
     seconds: float
     dem: Response
+    reason: str = ""
 
 
 def _history_problem(block, measured, beta0, mode, n_bounces) -> _HProblem:
     """Checks and set-up of :func:`fit_history` (also used to map its loss on a grid)."""
     check_choice("mode", mode, MODES)
+    if isinstance(n_bounces, bool) or not (
+        isinstance(n_bounces, (int, np.integer)) and n_bounces >= 1
+    ):
+        raise ValueError(f"n_bounces (impacts compared) must be an int >= 1; got {n_bounces!r}.")
     block = _concrete_block(block)
     t = np.asarray(measured.t, float)
     th = np.asarray(measured.theta, float)
@@ -1108,6 +1338,12 @@ def _history_problem(block, measured, beta0, mode, n_bounces) -> _HProblem:
     ref = metrics.peaks(t, th, eta, n_bounces, mode, hyst)
     if int(ref.n_impacts) < 2:
         raise ValueError("the measured history has fewer than two impacts; record longer.")
+    w, _ = metrics._bounce_weights(ref, MIN_ENERGY_RATIO)
+    if not float(jnp.sum(w)) > 0:
+        raise ValueError(
+            f"the measured history keeps no bounce with {100 * MIN_ENERGY_RATIO:g} % of its "
+            "release energy: the loss would be identically zero; release from a larger theta0."
+        )
     beta0 = 0.3 * float(beta_dejong(block)) if beta0 is None else float(beta0)
     if not beta0 > 0:
         raise ValueError(f"beta0 must be > 0 s (the fit works on log beta); got {beta0}.")
@@ -1182,15 +1418,18 @@ def fit_history(
     dem = simulate_dem(
         fitted, beta=beta, mode=mode, theta0=theta0, duration=float(t[-1]), save_dt=save_dt
     )
+    loss = float(_history_loss(u, problem))
+    converged, reason = _verdict(converged, [], loss=loss, beta=beta, b=b)
     return HistoryFit(
         beta=beta,
         b=b,
         block=fitted,
-        loss=float(_history_loss(u, problem)),
+        loss=loss,
         history={k: np.asarray(v) for k, v in hist.items()},
         n_simulations=n_sims,
         n_iterations=n_iter,
         converged=converged,
         seconds=time.perf_counter() - t_start,
         dem=dem,
+        reason=reason,
     )

@@ -14,9 +14,11 @@ prints a summary.
 
 ``rockjax calibrate --b 0.25 --h 3 [--e 0.975]`` fits the DEM damping ``beta`` of one block so
 that its free rocking matches Housner's with restitution ``e`` (:func:`rockjax.fit_beta`; default
-``e = e_H``, Eq. 2), or, with ``--target bounces``, a facade's measured bounce ratios. It prints
-``beta``, the DEM's effective ``e`` and the reachable range, and writes ``calibration.png`` (DEM
-at the fitted ``beta`` vs Housner, and the loss history) and ``calibration.json``.
+``e = e_H``, Eq. 2), or, with ``--mode one_sided`` (target ``bounces`` by default), a facade's
+measured bounce ratios. It prints ``beta``, the DEM's effective ``e`` and the reachable range,
+and writes ``calibration.png`` (DEM at the fitted ``beta`` vs Housner, and the loss history) and
+``calibration.json``; a fit that does not meet its target within the stated tolerance is
+reported with the reason on stderr and exit status 1 (the files are still written).
 
 Errors in the input are reported as one ``error: ...`` line on stderr with exit status 2.
 """
@@ -857,7 +859,7 @@ def _ida_argv(args: argparse.Namespace) -> list[str]:
 
 
 def _add_calibrate_parser(sub) -> None:
-    from .calibration import BOUNCE_FRACTIONS, METHODS, MODES
+    from .calibration import BOUNCE_FRACTIONS, E_TOL, METHODS, MODES
 
     fractions = "/".join(f"{100 * f:g}" for f in BOUNCE_FRACTIONS)
     p = sub.add_parser(
@@ -866,10 +868,13 @@ def _add_calibrate_parser(sub) -> None:
         description=(
             "Fit the DEM's stiffness-proportional damping beta [s] of one block so that its "
             "free rocking matches Housner's with restitution e (rockjax.fit_beta; bounce "
-            "log-energy loss, L-BFGS by default). With --target bounces (facades, one-sided) "
-            f"the DEM's e_exp of bounces 1-3 is fitted to {fractions} % of |e_1SR| instead. "
+            "log-energy loss, L-BFGS by default). Facades (--mode one_sided) are calibrated "
+            f"by default to their measured bounces (--target bounces): the DEM's e_exp of "
+            f"bounces 1-3 is fitted to {fractions} % of |e_1SR|. "
             "Prints beta and the DEM's effective e; writes calibration.png (both time histories "
-            "and the loss history) and calibration.json into --out."
+            "and the loss history) and calibration.json into --out. Exit status 1 when the fit "
+            f"does not meet its target (|e_effective - e| <= {E_TOL:g}; facades: each e_exp in its "
+            "measured band), with the reason; 2 on invalid input or an unreachable target."
         ),
         allow_abbrev=False,
     )
@@ -880,7 +885,8 @@ def _add_calibrate_parser(sub) -> None:
         type=float,
         default=None,
         metavar="E",
-        help="target Housner restitution [-] (default: e_H, Eq. 2; |e_1SR| with --mode one_sided)",
+        help="target Housner restitution [-], --target e only (default: e_H, Eq. 2; "
+        "|e_1SR|, Eq. 5, with --mode one_sided --target e)",
     )
     p.add_argument(
         "--mode",
@@ -892,8 +898,9 @@ def _add_calibrate_parser(sub) -> None:
     p.add_argument(
         "--target",
         choices=("e", "bounces"),
-        default="e",
-        help="e: match Housner with --e; bounces: facade bounce ratios (default: e)",
+        default=None,
+        help="e: match Housner with --e; bounces: facade bounce ratios (default: e two-sided, "
+        "bounces one-sided)",
     )
     p.add_argument(
         "--theta0",
@@ -913,7 +920,7 @@ def _add_calibrate_parser(sub) -> None:
         type=float,
         default=None,
         metavar="S",
-        help="upper end of the beta search [s] (default: 2 beta_DeJong)",
+        help="upper end of the beta search [s] (default: 2 beta_DeJong; 8 beta_Hcrit one-sided)",
     )
     p.add_argument(
         "--method",
@@ -931,17 +938,24 @@ def _add_calibrate_parser(sub) -> None:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from .calibration import BOUNCE_FRACTIONS, fit_beta
+    from .calibration import BOUNCE_FRACTIONS, default_target, fit_beta
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} exists and is not a folder; give a folder path.")
     mode = args.mode or ("one_sided" if args.target == "bounces" else "two_sided")
-    if args.target == "bounces":
+    target = args.target or default_target(mode)
+    if target == "bounces":
         if mode != "one_sided":
             raise ValueError(
                 "--target bounces is the facade calibration; it needs --mode one_sided "
                 "(or use --target e for a parapet)."
+            )
+        if args.e is not None and args.target is None:
+            raise ValueError(
+                "--mode one_sided calibrates to the facade bounce targets by default and takes "
+                f"no --e; drop --e {args.e:g}, or add --target e to match Housner's one-sided "
+                "rocking with it."
             )
         if args.e is not None:
             raise ValueError(
@@ -964,7 +978,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     e_1sr = abs(float(e_isr(block)))
     b_dj = float(beta_dejong(block))
     e = None
-    if args.target == "e":
+    if target == "e":
         e = args.e if args.e is not None else (e_h if mode == "two_sided" else e_1sr)
     if e is not None:
         default = {"two_sided": " (default: e_H, Eq. 2)", "one_sided": " (default: |e_1SR|, Eq. 5)"}
@@ -983,7 +997,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     fit = fit_beta(
         block,
         e,
-        target=args.target,
+        target=target,
         mode=mode,
         theta0=args.theta0 * eta,
         beta_max=args.beta_max,
@@ -1007,6 +1021,9 @@ def _calibrate(args: argparse.Namespace) -> int:
         f"simulations = {fit.n_simulations}, {fit.seconds:.1f} s (first call includes compilation)",
         flush=True,
     )
+    if target == "bounces":
+        pct = " / ".join(f"{100 * v / e_1sr:.1f}" for v in e_exp_fit)
+        print(f"e_exp/|e_1SR| = {pct} % (measured bands 64-72 / 74-86 / ~100 %)")
 
     out.mkdir(parents=True, exist_ok=True)
     axes = plot.calibration(fit)
@@ -1020,10 +1037,10 @@ def _calibrate(args: argparse.Namespace) -> int:
         "command": "rockjax " + " ".join(_calibrate_argv(args)),
         "block": _block_info(block) | {"e_H": e_h, "e_1sr": e_1sr, "beta_dejong_s": b_dj},
         "mode": mode,
-        "target": args.target,
+        "target": target,
         "theta0_over_eta": args.theta0,
         "e_target": fit.e,
-        "bounce_targets": None if args.target == "e" else [f * e_1sr for f in BOUNCE_FRACTIONS],
+        "bounce_targets": None if target == "e" else [f * e_1sr for f in BOUNCE_FRACTIONS],
         "beta_s": fit.beta,
         "beta_over_beta_dejong": fit.beta / b_dj,
         "e_effective": fit.e_effective,
@@ -1036,6 +1053,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         "n_simulations": fit.n_simulations,
         "n_iterations": fit.n_iterations,
         "converged": fit.converged,
+        "reason": fit.reason,
         "method": fit.method,
         "seconds": fit.seconds,
         "dem_status": int(fit.dem.status),
@@ -1046,7 +1064,8 @@ def _calibrate(args: argparse.Namespace) -> int:
         f.write("\n")
     print(f"wrote {png} and calibration.json to {out}/", flush=True)
     if not fit.converged:
-        print("warning: the fit did not converge within its iteration cap", file=sys.stderr)
+        print(f"not converged: {fit.reason}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -1057,7 +1076,9 @@ def _calibrate_argv(args: argparse.Namespace) -> list[str]:
             parts += [flag, f"{value:g}"]
     if args.mode is not None:
         parts += ["--mode", args.mode]
-    parts += ["--target", args.target, "--theta0", f"{args.theta0:g}"]
+    if args.target is not None:
+        parts += ["--target", args.target]
+    parts += ["--theta0", f"{args.theta0:g}"]
     if args.beta_max is not None:
         parts += ["--beta-max", f"{args.beta_max:g}"]
     return parts + ["--method", args.method, "--out", str(args.out)]
