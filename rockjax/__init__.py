@@ -41,6 +41,7 @@ from . import plot as plot  # noqa: E402  (matplotlib is imported lazily inside)
 from . import pulses as pulses  # noqa: E402
 from . import records as records  # noqa: E402
 from . import relations as relations  # noqa: E402
+from . import spectra as spectra  # noqa: E402
 from .block import Block as Block  # noqa: E402
 from .calibration import Calibration as Calibration  # noqa: E402
 from .calibration import fit_beta as fit_beta  # noqa: E402
@@ -66,6 +67,8 @@ from .relations import e_isr as e_isr  # noqa: E402
 from .relations import omega_crit as omega_crit  # noqa: E402
 from .relations import omega_hcrit as omega_hcrit  # noqa: E402
 from .response import Response as Response  # noqa: E402
+from .spectra import response_spectrum as response_spectrum  # noqa: E402
+from .spectra import rotd_spectrum as rotd_spectrum  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -98,8 +101,11 @@ __all__ = [
     "read_csv",
     "records",
     "relations",
+    "response_spectrum",
+    "rotd_spectrum",
     "simulate_dem",
     "simulate_housner",
+    "spectra",
     "stable_dt",
     "write_at2",
 ]

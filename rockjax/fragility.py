@@ -31,6 +31,12 @@ interval every time.
 
 Runs with a nonzero ``status`` (failed runs) and runs with a non-positive or non-finite IM (the
 lognormal gives them ``P = 0``) are left out of both estimators.
+
+Intensity measures (:func:`intensity_grid`): ``"pga"``, ``"pgv"`` and the IDA's own IM
+(``"sa(T)"``, :func:`rockjax.ida`'s ``im=``) are computed from the Dataset (every one is the
+record's IM times the scale factor); any other name is a variable or coordinate of the Dataset
+(e.g. ``"pga_scaled"``, ``"scale"``). The median is in the IM's units, and for an acceleration
+also in g (:attr:`Fragility.median_g`).
 """
 
 from __future__ import annotations
@@ -42,7 +48,9 @@ import numpy as np
 import xarray as xr
 from jaxtyping import ArrayLike, Float
 
+from .constants import G
 from .response import STATUS_OK
+from .spectra import is_im_name, parse_im
 
 _erfc = np.frompyfunc(math.erfc, 1, 1)
 _SQRT2 = math.sqrt(2.0)
@@ -57,9 +65,11 @@ class Fragility:
 
     Returned by :func:`fragility`; immutable.
 
+    ``median_g`` and ``median_ci_g`` give the median in g where the IM is an acceleration.
+
     Attributes:
-        median: Median ``theta`` of the fragility, in the units of the IM (``pga_scaled``:
-            [m/s^2]).
+        median: Median ``theta`` of the fragility, in the units of the IM (``im_units``; PGA and
+            Sa: [m/s^2], PGV: [m/s]).
         beta_log: Logarithmic standard deviation ``sigma`` [-].
         median_ci: ``(lo, hi)`` bootstrap confidence interval of ``median``; NaN if
             ``n_boot == 0``.
@@ -70,8 +80,8 @@ class Fragility:
         n_no_collapse: Records whose valid runs never collapsed.
         n_boot_failed: Bootstrap resamples left out because their fit does not exist.
         method: ``"mle"`` or ``"first_collapse"``.
-        im: Name of the IM variable in the Dataset.
-        im_units: Units of the IM (its ``units`` attribute, "" if none).
+        im: The IM: ``"pga"``, ``"pgv"``, ``"sa(T)"``, or the name of a Dataset variable.
+        im_units: Units of the IM (``"m/s^2"``, ``"m/s"``, ``"g"``; "" if it has none).
         boot_median: The bootstrap medians (failed resamples left out), read-only.
         boot_beta_log: The matching bootstrap ``beta_log`` values, read-only.
     """
@@ -90,6 +100,39 @@ class Fragility:
     im_units: str
     boot_median: np.ndarray = dataclasses.field(repr=False, compare=False)
     boot_beta_log: np.ndarray = dataclasses.field(repr=False, compare=False)
+
+    @property
+    def median_g(self) -> float | None:
+        """Median in g [-] where the IM is an acceleration (m/s^2 or g), else None."""
+        factor = _to_g(self.im_units)
+        return None if factor is None else self.median * factor
+
+    @property
+    def median_ci_g(self) -> tuple[float, float] | None:
+        """``median_ci`` in g [-] where the IM is an acceleration, else None."""
+        factor = _to_g(self.im_units)
+        if factor is None:
+            return None
+        return (self.median_ci[0] * factor, self.median_ci[1] * factor)
+
+    def __repr__(self) -> str:
+        def interval(lo, hi, unit):
+            return f" [{lo:.3g}, {hi:.3g}]{unit}" if math.isfinite(lo) else ""
+
+        unit = f" {self.im_units}" if self.im_units not in ("", "1") else ""
+        if self.median_g is not None and self.im_units != "g":
+            lo, hi = self.median_ci_g
+            median = (
+                f"median {self.median_g:.4g} g{interval(lo, hi, ' g')} = {self.median:.4g}{unit}"
+            )
+        else:
+            median = f"median {self.median:.4g}{unit}{interval(*self.median_ci, unit)}"
+        level = f" ({100 * self.ci:.0f}% CI)" if math.isfinite(self.median_ci[0]) else ""
+        return (
+            f"Fragility({self.im}: {median}, beta_log {self.beta_log:.3g}"
+            f"{interval(*self.beta_log_ci, '')}{level}, {self.method}, "
+            f"{self.n_records} records, {self.n_runs} runs)"
+        )
 
     def prob(self, im: Float[ArrayLike, "*shape"]) -> Float[np.ndarray, "*shape"]:
         r"""Probability of collapse :math:`\Phi(\ln(IM/\theta)/\sigma)` at the given IM values.
@@ -125,7 +168,7 @@ class Fragility:
 
 def fragility(
     ds: xr.Dataset,
-    im: str = "pga_scaled",
+    im: str | None = None,
     *,
     n_boot: int = 1000,
     seed: int = 0,
@@ -139,8 +182,11 @@ def fragility(
     Args:
         ds: A Dataset with dims ``("record", "scale")`` and variables ``collapse``, ``status``
             and ``im``, as :func:`rockjax.ida` returns.
-        im: Name of the intensity measure, a variable or coordinate of ``ds`` broadcastable to
-            ``(record, scale)``; default ``"pga_scaled"`` [m/s^2].
+        im: The intensity measure: ``"pga"`` [m/s^2], ``"pgv"`` [m/s], the IDA's ``"sa(T)"``
+            [m/s^2], or a variable or coordinate of ``ds`` broadcastable to
+            ``(record, scale)`` (e.g. ``"scale"``); see :func:`intensity_grid`. Default: the
+            IDA's IM (``ds.attrs["im"]``, ``"pga"`` unless ``rj.ida`` was given ``im=``), or
+            ``"pga_scaled"`` for a Dataset without one.
         n_boot: Bootstrap resamples of the records; 0 skips the bootstrap (NaN intervals).
             Each resample is one refit: about 2 s per 1000 resamples for 1600 runs (MLE).
         seed: Seed of ``numpy.random.default_rng`` for the bootstrap.
@@ -156,12 +202,14 @@ def fragility(
             not exist (no collapse, no survival, fewer than two collapsing records for
             ``first_collapse``, or collapses and survivals that do not overlap in IM).
     """
-    for var in ("collapse", "status", im):
+    for var in ("collapse", "status"):
         if var not in ds.variables:
             raise ValueError(
                 f"ds has no {var!r} variable; pass the Dataset that rj.ida returns "
                 f"(it has {sorted(map(str, ds.variables))})."
             )
+    im = default_im(ds) if im is None else im
+    im_grid = intensity_grid(ds, im)
     if not (isinstance(n_boot, int) and n_boot >= 0):
         raise ValueError(f"n_boot must be an int >= 0; got n_boot={n_boot!r}. Use 1000.")
     if not 0.0 < ci < 1.0:
@@ -169,7 +217,7 @@ def fragility(
     dims = ("record", "scale")
     collapse = np.asarray(ds["collapse"].transpose(*dims), dtype=bool)
     status = np.asarray(ds["status"].transpose(*dims))
-    x_im = np.asarray(ds[im].broadcast_like(ds["collapse"]).transpose(*dims), dtype=float)
+    x_im = np.asarray(im_grid.transpose(*dims), dtype=float)
     with np.errstate(invalid="ignore"):
         valid = (status == STATUS_OK) & np.isfinite(x_im) & (x_im > 0)
     log_im = np.log(np.where(valid, x_im, 1.0))
@@ -234,14 +282,84 @@ def fragility(
         n_no_collapse=n_no_collapse,
         n_boot_failed=int(n_boot - boot.shape[0]),
         method="first_collapse" if first_collapse else "mle",
-        im=im,
-        im_units=str(ds[im].attrs.get("units", "")),
+        im=str(im_grid.name),
+        im_units=str(im_grid.attrs.get("units", "")),
         boot_median=boot_median,
         boot_beta_log=boot_beta_log,
     )
 
 
+def default_im(ds: xr.Dataset) -> str:
+    """The IM a fragility or IDA figure uses by default: the IDA's (``ds.attrs["im"]``), or
+    ``"pga_scaled"`` for a Dataset without one."""
+    name = ds.attrs.get("im")
+    return str(name) if name is not None and "im" in ds.variables else "pga_scaled"
+
+
+def intensity_grid(ds: xr.Dataset, im: str) -> xr.DataArray:
+    """The intensity measure of every run of an IDA Dataset, on ``(record, scale)``.
+
+    ``"pga"`` is ``pga_scaled`` [m/s^2]; ``"pgv"`` is the coordinate ``pgv`` times ``scale``
+    [m/s]; an ``"sa(T)"`` is the Dataset's ``im`` variable when the IDA ran with that IM
+    (``ds.attrs["im"]``). Any other name is a variable or coordinate of ``ds``, broadcast to
+    ``(record, scale)``.
+
+    Args:
+        ds: A Dataset from :func:`rockjax.ida`.
+        im: ``"pga"``, ``"pgv"``, ``"sa(T)"`` or a variable name.
+
+    Returns:
+        A DataArray named ``im`` (canonical, e.g. ``"sa(0.5)"``) with a ``units`` attribute.
+
+    Raises:
+        ValueError: if ``ds`` cannot give that IM (an ``sa(T)`` other than the IDA's, or a
+            missing variable), with the IMs it can give.
+    """
+    if not isinstance(im, str):
+        raise ValueError(f"im must be a string such as 'pga' or 'sa(0.5)'; got im={im!r}.")
+    if "collapse" not in ds.variables:
+        raise ValueError(
+            "ds has no 'collapse' variable; pass the Dataset that rj.ida returns "
+            f"(it has {sorted(map(str, ds.variables))})."
+        )
+    shape = ds["collapse"]
+    ida_im = ds.attrs.get("im") if "im" in ds.variables else None
+    if is_im_name(im):
+        spec = parse_im(im)
+        if spec.name == ida_im:
+            out = ds["im"]
+        elif spec.kind == "pga" and "pga_scaled" in ds.variables:
+            out = ds["pga_scaled"]
+        elif spec.kind == "pgv" and "pgv" in ds.variables and "scale" in ds.variables:
+            out = ds["pgv"] * ds["scale"]
+        else:
+            have = ["pga"] if "pga_scaled" in ds.variables else []
+            have += ["pgv"] if "pgv" in ds.variables else []
+            have += [ida_im] if ida_im and ida_im not in have else []
+            raise ValueError(
+                f"this Dataset cannot give im={spec.name!r}: it holds {have or 'no IM'} "
+                f"(the IDA ran with im={ida_im!r}). Run rj.ida(..., im={spec.name!r}) for it."
+            )
+        out = out.broadcast_like(shape).rename(spec.name)
+        out.attrs = {"units": spec.units, "long_name": spec.long_name}
+        return out
+    if im not in ds.variables:
+        raise ValueError(
+            f"ds has no {im!r} variable; pass the Dataset that rj.ida returns "
+            f"(it has {sorted(map(str, ds.variables))}), or an IM: 'pga', 'pgv' or the IDA's "
+            f"{ida_im!r}."
+        )
+    out = ds[im].broadcast_like(shape).rename(im)
+    out.attrs = dict(ds[im].attrs)
+    return out
+
+
 # ----------------------------------------------------------------------------- helpers
+
+
+def _to_g(units: str) -> float | None:
+    """Factor from ``units`` to g, or None when they are not an acceleration."""
+    return {"m/s^2": 1.0 / G, "g": 1.0}.get(units)
 
 
 def _norm_tail(z: np.ndarray) -> np.ndarray:

@@ -29,6 +29,12 @@ Engineering demand parameters, per run:
 * ``status``: 0 if the run is valid, else a code of ``rockjax.response.STATUS_MESSAGES``; a
   failed run has NaN EDPs and ``collapse = False`` and does not stop the batch.
 * ``pga_scaled``: ``scale * pga`` [m/s^2], with ``pga`` the peak of the record as run.
+* ``im``: the intensity measure of the run, ``scale * IM(record)``, for ``im="pga"``
+  (default; equal to ``pga_scaled``), ``"pgv"`` [m/s] or ``"sa(T)"`` (5 %-damped
+  pseudo-spectral acceleration at ``T`` seconds, :mod:`rockjax.spectra`) [m/s^2]; all three
+  are proportional to the record's amplitude. ``im_g`` is the same in g where the IM is an
+  acceleration. Per record, ``pgv`` [m/s] and ``im_record`` (the IM at scale 1) are
+  coordinates, so :func:`rockjax.fragility` can fit against PGA, PGV or the IDA's IM.
 """
 
 from __future__ import annotations
@@ -50,10 +56,12 @@ from jaxtyping import ArrayLike, Float
 from ._checks import check_choice, check_nonnegative, check_positive, check_scales
 from ._types import ScalarLike
 from .block import Block
+from .constants import G
 from .dem import simulate_dem, stable_dt
 from .housner import P_DT_TARGET, _default_e, simulate_housner
 from .motion import GroundMotion
 from .response import STATUS_OK
+from .spectra import IntensityMeasure, intensity, parse_im
 
 MODELS = ("dem", "housner")
 MODES = ("two_sided", "one_sided")
@@ -77,6 +85,7 @@ def ida(
     chunk_size: int = 256,
     progress: bool = True,
     devices: Sequence[jax.Device] | None = None,
+    im: str = "pga",
 ) -> xr.Dataset:
     """Incremental dynamic analysis of one block: every record at every scale factor.
 
@@ -106,12 +115,17 @@ def ida(
             replicated; ``jax.sharding``); default every local device. With one device the
             chunks run as they are. The chunk size is rounded up to a multiple of the device
             count. Results do not depend on it (tests/test_ida.py).
+        im: Intensity measure of the Dataset's ``im`` variable: ``"pga"`` [m/s^2], ``"pgv"``
+            [m/s] or ``"sa(T)"``, e.g. ``"sa(0.5)"``, the 5 %-damped pseudo-spectral
+            acceleration at T = 0.5 s [m/s^2] (:func:`rockjax.spectra.parse_im`).
 
     Returns:
         An ``xarray.Dataset`` with dims ``("record", "scale")`` and variables
         ``max_d_over_b``, ``max_theta_over_eta``, ``collapse`` (bool), ``status`` (int) and
-        ``pga_scaled`` [m/s^2] (see the module docstring for their definitions). Coordinates:
-        ``record`` (names), ``scale``, and per record ``pga`` [m/s^2] (of the record as run),
+        ``pga_scaled`` [m/s^2], ``im`` [m/s^2 or m/s] and, for an acceleration IM, ``im_g``
+        [g] (see the module docstring for their definitions; ``attrs["im"]`` names the IM).
+        Coordinates: ``record`` (names), ``scale``, and per record ``pga`` [m/s^2] (of the
+        record as run), ``pgv`` [m/s], ``im_record`` (the IM at scale 1),
         ``dt`` [s] and ``duration`` [s] (as given), ``name``, and ``meta_<key>`` for every
         metadata key of any record ("" where a record lacks it). ``attrs`` hold the run
         parameters (model, mode, beta or e, the block, gap, tail, the run length ``t_end``,
@@ -137,6 +151,7 @@ def ida(
         t_end=t_end,
         chunk_size=chunk_size,
         n_devices=len(devices),
+        im=im,
     )
     grids = _run(plan, _placement(devices), progress)
     return _assemble(plan, grids)
@@ -272,22 +287,33 @@ class _Plan(NamedTuple):
     groups: list
     chunks: list
     pga: np.ndarray  # per record, as run [m/s^2]
+    pgv: np.ndarray  # per record [m/s]
+    im: IntensityMeasure
+    im_record: np.ndarray  # the IM per record at scale 1 [im.units]
     dt_step: np.ndarray  # solver step per record [s]
     tail: float
     t_end: float
 
 
 def _plan(
-    block, records, scales, *, model, mode, beta, e, gap, tail, t_end, chunk_size, n_devices
+    block, records, scales, *, model, mode, beta, e, gap, tail, t_end, chunk_size, n_devices, im
 ) -> _Plan:
     """Check the inputs of :func:`ida` and cut its runs into chunks (no run yet)."""
     block, config, e_used = run_config(block, model=model, mode=mode, beta=beta, e=e, gap=gap)
+    im_spec = parse_im(im)
     scales = check_scales(scales)
     if not (isinstance(chunk_size, int) and chunk_size >= 1):
         raise ValueError(f"chunk_size must be an int >= 1; got chunk_size={chunk_size!r}. Use 256.")
     check_nonnegative("tail", tail, "s", "tail is the free vibration after the records, e.g. 2.0.")
     tail = float(tail)
     groups, pga, t_end = _group_records(records, tail, t_end)
+    pgv = np.array([float(r.pgv) for r in records])
+    if im_spec.kind == "pga":
+        im_record = pga
+    elif im_spec.kind == "pgv":
+        im_record = pgv
+    else:
+        im_record = np.array([float(intensity(r, im_spec.name)) for r in records])
     # Both simulators split each record step into ceil(dt_rec / dt_bound) equal steps.
     dt_step = np.zeros(len(records))
     chunks = []
@@ -307,6 +333,9 @@ def _plan(
         groups,
         chunks,
         pga,
+        pgv,
+        im_spec,
+        im_record,
         dt_step,
         tail,
         t_end,
@@ -351,6 +380,8 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
     records, block, config = plan.records, plan.block, plan.config
     with np.errstate(over="ignore"):  # a huge scale may overflow to inf, as it does in the run
         pga_scaled = plan.pga[:, None] * plan.scales[None, :]
+        im_scaled = plan.im_record[:, None] * plan.scales[None, :]
+    im = plan.im
     dims = ("record", "scale")
     data_vars = {
         "max_d_over_b": (dims, grids["max_d_over_b"], _attrs("peak |d|/b, top centre", "1")),
@@ -358,7 +389,10 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
         "collapse": (dims, grids["collapse"], {"long_name": "overturned"}),
         "status": (dims, grids["status"], {"long_name": "0 ok, else STATUS_MESSAGES code"}),
         "pga_scaled": (dims, pga_scaled, _attrs("scaled peak ground acceleration", "m/s^2")),
+        "im": (dims, im_scaled, _attrs(f"{im.name}: scaled {im.long_name}", im.units)),
     }
+    if im.is_acceleration:
+        data_vars["im_g"] = (dims, im_scaled / G, _attrs(f"{im.name}: scaled, in g", "g"))
     names = [r.name for r in records]
     coords = {
         "record": names,
@@ -368,6 +402,12 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
             "record",
             plan.pga,
             _attrs("peak ground acceleration of the record as run", "m/s^2"),
+        ),
+        "pgv": ("record", plan.pgv, _attrs("peak ground velocity of the record", "m/s")),
+        "im_record": (
+            "record",
+            plan.im_record,
+            _attrs(f"{im.name}: {im.long_name} of the record (scale 1)", im.units),
         ),
         "dt": ("record", np.array([r.dt for r in records], float), _attrs("record step", "s")),
         "dt_step": ("record", plan.dt_step, _attrs("solver step of the record's runs", "s")),
@@ -385,6 +425,7 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
     attrs = {
         "model": config["model"],
         "mode": config["mode"],
+        "im": im.name,
         **{field: float(getattr(block, field)) for field in Block.FIELDS},
         "gap": config["gap"],
         "tail": plan.tail,

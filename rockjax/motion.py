@@ -13,6 +13,12 @@ from ._checks import check_positive, concrete
 from ._types import Scalar, ScalarLike, TimeSeries
 from .constants import G
 
+PLAUSIBLE_LIMIT_G = 10.0
+"""Plausibility limit of a ground acceleration [g]: a record or a PGA above it raises.
+
+Strong-motion records peak at a few g; a peak above 10 g almost always means a record in cm/s^2
+(or mm/s^2) passed where rockjax takes m/s^2 (a 0.3 g record is 294 cm/s^2)."""
+
 
 class GroundMotion(eqx.Module):
     """A ground acceleration record sampled at a uniform step.
@@ -44,6 +50,8 @@ class GroundMotion(eqx.Module):
 
     def __check_init__(self):
         check_positive("dt", self.dt, "s", "Use the record's sampling step, e.g. dt=0.01.")
+        if isinstance(self.ag, str) or isinstance(self.ag_v, str):
+            raise ValueError("ag and ag_v must be arrays of accelerations in m/s^2, not strings.")
         for label, arr in (("ag", self.ag), ("ag_v", self.ag_v)):
             if arr is None:
                 continue
@@ -61,6 +69,7 @@ class GroundMotion(eqx.Module):
                     f"{label} of record {self.name!r} has {bad.size} non-finite samples (first at "
                     f"index {bad[0]}, t={bad[0] * self.dt:.4f} s). Clean or trim the record first."
                 )
+            _check_plausible_acceleration(label, float(np.max(np.abs(a))), f"record {self.name!r}")
         if self.ag_v is not None and np.shape(self.ag_v) != np.shape(self.ag):
             raise ValueError(
                 f"ag_v must have the same shape as ag; got {np.shape(self.ag_v)} and {np.shape(self.ag)}."
@@ -106,9 +115,10 @@ class GroundMotion(eqx.Module):
     @classmethod
     def ricker(
         cls,
-        pga: float,
-        period: float,
+        pga: float | None = None,
+        period: float | None = None,
         *,
+        pga_g: float | None = None,
         dt: float = 0.005,
         duration: float | None = None,
         t0: float | None = None,
@@ -123,11 +133,12 @@ class GroundMotion(eqx.Module):
         Args:
             pga: Peak ground acceleration [m/s^2] (its sign sets the pulse direction).
             period: Pulse period T [s].
+            pga_g: The same peak in g (e.g. ``pga_g=0.4``); give ``pga`` or ``pga_g``.
             dt: Sampling step [s].
             duration: Record length [s]; default ``t0 + 4 T``.
             t0: Time of the central peak [s]; default ``1.5 T``.
         """
-        check_positive("period", period, "s")
+        pga = _pulse_amplitude("ricker", pga, pga_g, period)
         t0 = 1.5 * period if t0 is None else t0
         duration = t0 + 4.0 * period if duration is None else duration
         t = _time_axis(duration, dt)
@@ -138,9 +149,10 @@ class GroundMotion(eqx.Module):
     @classmethod
     def sine_cycle(
         cls,
-        pga: float,
-        period: float,
+        pga: float | None = None,
+        period: float | None = None,
         *,
+        pga_g: float | None = None,
         dt: float = 0.005,
         duration: float | None = None,
         t0: float = 0.0,
@@ -151,11 +163,12 @@ class GroundMotion(eqx.Module):
         Args:
             pga: Amplitude [m/s^2] (its sign sets the direction of the first half-cycle).
             period: Pulse period T [s].
+            pga_g: The same amplitude in g; give ``pga`` or ``pga_g``.
             dt: Sampling step [s].
             duration: Record length [s]; default ``t0 + 5 T``.
             t0: Pulse start [s].
         """
-        check_positive("period", period, "s")
+        pga = _pulse_amplitude("sine_cycle", pga, pga_g, period)
         duration = t0 + 5.0 * period if duration is None else duration
         t = _time_axis(duration, dt)
         tau = t - t0
@@ -165,9 +178,10 @@ class GroundMotion(eqx.Module):
     @classmethod
     def ricker_antisymmetric(
         cls,
-        pga: float,
-        period: float,
+        pga: float | None = None,
+        period: float | None = None,
         *,
+        pga_g: float | None = None,
         dt: float = 0.005,
         duration: float | None = None,
         t0: float | None = None,
@@ -197,6 +211,7 @@ class GroundMotion(eqx.Module):
         Args:
             pga: Peak ground acceleration [m/s^2]; its sign is the sign of the first main lobe.
             period: Wavelet parameter T [s] in the formula above.
+            pga_g: The same peak in g; give ``pga`` or ``pga_g``.
             dt: Sampling step [s].
             duration: Record length [s]; default ``t0 + 4 T``.
             t0: Centre of the wavelet (its central zero crossing) [s]; default ``1.5 T``.
@@ -209,7 +224,7 @@ class GroundMotion(eqx.Module):
             Vassiliou, M. F. and Makris, N. (2011). Estimating time scales and length scales in
             pulselike earthquake acceleration records with wavelet analysis. BSSA 101(2).
         """
-        check_positive("period", period, "s")
+        pga = _pulse_amplitude("ricker_antisymmetric", pga, pga_g, period)
         t0 = 1.5 * period if t0 is None else t0
         duration = t0 + 4.0 * period if duration is None else duration
         t = _time_axis(duration, dt)
@@ -222,9 +237,10 @@ class GroundMotion(eqx.Module):
     @classmethod
     def cosine_cycle(
         cls,
-        pga: float,
-        period: float,
+        pga: float | None = None,
+        period: float | None = None,
         *,
+        pga_g: float | None = None,
         dt: float = 0.005,
         duration: float | None = None,
         t0: float = 0.0,
@@ -249,6 +265,7 @@ class GroundMotion(eqx.Module):
         Args:
             pga: Amplitude [m/s^2]; its sign is the direction of the initial acceleration.
             period: Pulse period T [s].
+            pga_g: The same amplitude in g; give ``pga`` or ``pga_g``.
             dt: Sampling step [s].
             duration: Record length [s]; default ``t0 + 5 T``.
             t0: Pulse start [s].
@@ -261,7 +278,7 @@ class GroundMotion(eqx.Module):
             Makris, N. and Roussos, Y. (2000). Rocking response of rigid blocks under
             near-source ground motions. Geotechnique 50(3), 243-262.
         """
-        check_positive("period", period, "s")
+        pga = _pulse_amplitude("cosine_cycle", pga, pga_g, period)
         duration = t0 + 5.0 * period if duration is None else duration
         t = _time_axis(duration, dt)
         tau = t - t0
@@ -297,7 +314,12 @@ class GroundMotion(eqx.Module):
     @property
     def pga(self):
         """Peak ground acceleration [m/s^2]."""
-        return jnp.max(jnp.abs(jnp.asarray(self.ag)))
+        return _peak_abs(self.ag)
+
+    @property
+    def pga_g(self):
+        """Peak ground acceleration in units of g [-] (``pga / 9.80665``)."""
+        return self.pga / G
 
     @property
     def metadata(self) -> dict[str, str]:
@@ -323,20 +345,44 @@ class GroundMotion(eqx.Module):
         ag_v = None if self.ag_v is None else self.ag_v * factor
         return self._with_series(self.ag * factor, ag_v)
 
-    def scaled_to_pga(self, target_pga: ScalarLike) -> GroundMotion:
+    def scaled_to_pga(
+        self, target_pga: ScalarLike | None = None, *, target_pga_g: ScalarLike | None = None
+    ) -> GroundMotion:
         """The record scaled so that its horizontal peak ``max|ag|`` equals ``target_pga``.
 
         The vertical component, if any, is scaled by the same factor ``target_pga / pga``.
 
         Args:
             target_pga: Target peak ground acceleration [m/s^2], a positive magnitude.
+            target_pga_g: The same target in g (``scaled_to_pga(target_pga_g=0.3)``); give
+                ``target_pga`` or ``target_pga_g``.
 
         Raises:
-            ValueError: if ``target_pga`` is not positive or the record is all zeros.
+            ValueError: if not exactly one target is given, the target is not positive or above
+                10 g, or the record is all zeros.
         """
-        check_positive(
-            "target_pga", target_pga, "m/s^2", "Pass a magnitude, e.g. 0.3 * rockjax.constants.G."
-        )
+        if (target_pga is None) == (target_pga_g is None):
+            raise ValueError(
+                "scaled_to_pga needs exactly one of target_pga [m/s^2] or target_pga_g [g]; got "
+                f"target_pga={target_pga!r}, target_pga_g={target_pga_g!r}. E.g. "
+                "scaled_to_pga(target_pga_g=0.3) or scaled_to_pga(0.3 * rockjax.constants.G)."
+            )
+        if target_pga_g is not None:
+            _reject_string("target_pga_g", target_pga_g, "g")
+            check_positive("target_pga_g", target_pga_g, "g", "Pass a magnitude, e.g. 0.3.")
+            if (v := concrete(target_pga_g)) is not None:
+                _check_plausible_acceleration("target_pga_g", float(np.max(v)) * G, "the target")
+            target_pga = target_pga_g * G
+        else:
+            _reject_string("target_pga", target_pga, "m/s^2")
+            check_positive(
+                "target_pga",
+                target_pga,
+                "m/s^2",
+                "Pass a magnitude, e.g. 0.3 * rockjax.constants.G, or target_pga_g=0.3.",
+            )
+            if (v := concrete(target_pga)) is not None:
+                _check_plausible_acceleration("target_pga", float(np.max(v)), "the target")
         peak = self.pga
         if (p := concrete(peak)) is not None and p == 0.0:
             raise ValueError(
@@ -427,12 +473,12 @@ class GroundMotion(eqx.Module):
     @property
     def pgv(self) -> Scalar:
         """Peak ground velocity ``max|v|`` [m/s] (trapezoid rule, from rest, no correction)."""
-        return jnp.max(jnp.abs(self.velocity()))
+        return _peak_abs(self.velocity())
 
     @property
     def pgd(self) -> Scalar:
         """Peak ground displacement ``max|d|`` [m] (trapezoid rule twice, from rest, no correction)."""
-        return jnp.max(jnp.abs(self.displacement()))
+        return _peak_abs(self.displacement())
 
     @property
     def arias_intensity(self) -> Scalar:
@@ -486,6 +532,61 @@ class GroundMotion(eqx.Module):
         return first_time(hi) - first_time(lo)
 
 
+def _reject_string(name: str, value, unit: str) -> None:
+    if isinstance(value, (str, bytes, bool)):
+        raise ValueError(f"{name} must be a number in {unit}; got {name}={value!r}.")
+
+
+def _check_plausible_acceleration(name: str, peak: float, where: str) -> None:
+    """Raise when an acceleration peak [m/s^2] is above :data:`PLAUSIBLE_LIMIT_G`."""
+    if peak <= PLAUSIBLE_LIMIT_G * G:
+        return
+    if name.endswith("_g"):
+        fix = (
+            f"{name} is in g (0.4 for 0.4 g): did you pass m/s^2 or cm/s^2? Divide by "
+            "9.80665 (m/s^2) or 980.665 (cm/s^2), or pass the value in m/s^2 without the _g."
+        )
+    else:
+        fix = (
+            "rockjax takes m/s^2: did you pass cm/s^2 or mm/s^2? Convert with ag / 100 "
+            "(cm/s^2) or ag / 1000 (mm/s^2); a record in g goes through "
+            "GroundMotion.from_g(ag_g, dt), a pulse takes pga_g=..., and a scaled record must "
+            "stay below 10 g."
+        )
+    raise ValueError(
+        f"{name} of {where} peaks at {peak:.4g} m/s^2 = {peak / G:.3g} g, above the "
+        f"plausibility limit of {PLAUSIBLE_LIMIT_G:g} g for a ground acceleration. {fix}"
+    )
+
+
+def _pulse_amplitude(constructor: str, pga, pga_g, period):
+    """The signed pulse amplitude [m/s^2] from ``pga`` [m/s^2] or ``pga_g`` [g], checked."""
+    if (pga is None) == (pga_g is None):
+        raise ValueError(
+            f"{constructor} needs exactly one of pga [m/s^2] or pga_g [g] (the signed peak "
+            f"ground acceleration); got pga={pga!r}, pga_g={pga_g!r}. E.g. "
+            f"GroundMotion.{constructor}(pga_g=0.4, period=0.5) or "
+            f"GroundMotion.{constructor}(pga=0.4 * rockjax.constants.G, period=0.5)."
+        )
+    if period is None:
+        raise ValueError(
+            f"{constructor} needs period, the pulse period in s, e.g. period=0.5; got none."
+        )
+    _reject_string("period", period, "s")
+    check_positive("period", period, "s")
+    name, value, unit = ("pga", pga, "m/s^2") if pga_g is None else ("pga_g", pga_g, "g")
+    _reject_string(name, value, unit)
+    if (v := concrete(value)) is not None:
+        if v.ndim != 0 or not np.isfinite(v):
+            raise ValueError(
+                f"{name} must be one finite number in {unit} (its sign sets the direction); "
+                f"got {name}={value!r}."
+            )
+        factor = 1.0 if pga_g is None else G
+        _check_plausible_acceleration(name, abs(float(v)) * factor, f"the {constructor} pulse")
+    return value if pga_g is None else value * G
+
+
 def _time_axis(duration: float, dt: float) -> np.ndarray:
     check_positive("duration", duration, "s")
     check_positive("dt", dt, "s")
@@ -494,9 +595,23 @@ def _time_axis(duration: float, dt: float) -> np.ndarray:
 
 
 def _cumtrapz(y, dt: float):
-    """Cumulative trapezoid integral of ``y`` sampled every ``dt``, starting at 0."""
+    """Cumulative trapezoid integral of ``y`` sampled every ``dt``, starting at 0.
+
+    A concrete ``y`` is integrated in NumPy: eager JAX would compile each operation anew for
+    every record length (about 0.4 s per record on a loaded 2-core machine).
+    """
+    if (c := concrete(y)) is not None:
+        steps = 0.5 * dt * (c[1:] + c[:-1])
+        return jnp.asarray(np.concatenate([np.zeros(1), np.cumsum(steps)]))
     steps = 0.5 * dt * (y[1:] + y[:-1])
     return jnp.concatenate([jnp.zeros(1, dtype=steps.dtype), jnp.cumsum(steps)])
+
+
+def _peak_abs(x):
+    """``max|x|`` (in NumPy for a concrete ``x``, as :func:`_cumtrapz`)."""
+    if (c := concrete(x)) is not None:
+        return jnp.asarray(np.max(np.abs(c)))
+    return jnp.max(jnp.abs(jnp.asarray(x)))
 
 
 def _cumulative_arias(ag, dt: float):

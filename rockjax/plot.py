@@ -19,6 +19,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from .constants import G
+from .fragility import default_im, intensity_grid
 from .motion import GroundMotion
 from .relations import amplitude_after_impacts
 from .response import Response
@@ -337,21 +338,37 @@ def calibration(fit, axes=None, *, title: str | None = None):
 
 # ----------------------------------------------------------------------------- IDA and fragility
 
-_IM_LABELS = {"pga_scaled": "PGA", "scale": "scale factor"}
+_IM_LABELS = {
+    "pga_scaled": "PGA",
+    "pga": "PGA",
+    "pgv": "PGV",
+    "im_g": "IM",
+    "scale": "scale factor",
+}
 _EDP_LABELS = {
     "max_d_over_b": r"peak top displacement $|d|/b$",
     "max_theta_over_eta": r"$\theta_{max}/\eta$",
 }
 
 
-def _im_axis(name: str, units_attr: str, units: str) -> tuple[float, str]:
-    """Divisor and axis label of an IM: accelerations in m/s^2 are shown in ``units``."""
+def _im_label(name: str) -> str:
+    if name.startswith("sa(") and name.endswith(")"):
+        return f"$S_a$({name[3:-1]} s)"
+    return _IM_LABELS.get(name, name)
+
+
+def _im_axis(name: str, units_attr: str, units: str) -> tuple[float, str, str]:
+    """Divisor, axis label and unit text of an IM: accelerations are shown in ``units``."""
     if units not in ("g", "m/s^2"):
         raise ValueError(f"units must be 'g' or 'm/s^2'; got units={units!r}.")
-    label = _IM_LABELS.get(name, name)
-    if units_attr == "m/s^2":
-        return (G, f"{label} [g]") if units == "g" else (1.0, f"{label} [m/s$^2$]")
-    return 1.0, f"{label} [{units_attr if units_attr not in ('', '1') else '-'}]"
+    label = _im_label(name)
+    if units_attr in ("m/s^2", "g"):
+        to_si = G if units_attr == "g" else 1.0  # the IM in m/s^2 is value * to_si
+        if units == "g":
+            return G / to_si, f"{label} [g]", "g"
+        return 1.0 / to_si, f"{label} [m/s$^2$]", "m/s$^2$"
+    unit = units_attr if units_attr not in ("", "1") else "-"
+    return 1.0, f"{label} [{unit}]", "" if unit == "-" else unit
 
 
 def _check_vars(ds, names) -> None:
@@ -363,7 +380,7 @@ def _check_vars(ds, names) -> None:
             )
 
 
-def ida(ds, ax=None, *, edp: str = "max_d_over_b", im: str = "pga_scaled", units: str = "g"):
+def ida(ds, ax=None, *, edp: str = "max_d_over_b", im: str | None = None, units: str = "g"):
     """IDA curves: one line per record, the demand on x and the intensity on y (paper Fig. 10).
 
     Only valid runs (``status == 0``) are drawn; collapsed runs are marked with a cross (their
@@ -373,8 +390,9 @@ def ida(ds, ax=None, *, edp: str = "max_d_over_b", im: str = "pga_scaled", units
         ds: A Dataset from :func:`rockjax.ida`.
         ax: A matplotlib ``Axes`` to draw on; default a new figure.
         edp: Demand variable of ``ds``, e.g. ``"max_d_over_b"`` or ``"max_theta_over_eta"``.
-        im: Intensity variable or coordinate of ``ds``, e.g. ``"pga_scaled"`` [m/s^2] or
-            ``"scale"``.
+        im: Intensity measure: ``"pga"``, ``"pgv"``, the IDA's ``"sa(T)"``, or a variable or
+            coordinate of ``ds`` such as ``"scale"`` (:func:`rockjax.fragility.intensity_grid`);
+            default the IDA's IM (``"pga_scaled"`` for a Dataset without one).
         units: ``"g"`` or ``"m/s^2"``: the unit of an acceleration IM on the axis.
 
     Returns:
@@ -383,12 +401,13 @@ def ida(ds, ax=None, *, edp: str = "max_d_over_b", im: str = "pga_scaled", units
     Raises:
         ValueError: If ``ds`` lacks a variable or ``units`` is unknown.
     """
-    _check_vars(ds, ("collapse", "status", edp, im))
-    div, ylabel = _im_axis(im, str(ds[im].attrs.get("units", "")), units)
+    _check_vars(ds, ("collapse", "status", edp))
+    grid = intensity_grid(ds, default_im(ds) if im is None else im)
+    div, ylabel, _ = _im_axis(str(grid.name), str(grid.attrs.get("units", "")), units)
     ax = _new_axes(ax)
     dims = ("record", "scale")
     x_all = np.asarray(ds[edp].transpose(*dims), dtype=float)
-    y_all = np.asarray(ds[im].broadcast_like(ds["collapse"]).transpose(*dims), dtype=float) / div
+    y_all = np.asarray(grid.transpose(*dims), dtype=float) / div
     col_all = np.asarray(ds["collapse"].transpose(*dims), dtype=bool)
     ok_all = np.asarray(ds["status"].transpose(*dims)) == 0
     names = [str(r) for r in np.asarray(ds["record"])]
@@ -439,13 +458,13 @@ def fragility(frag, ax=None, *, ds=None, units: str = "g"):
     Raises:
         ValueError: If ``ds`` lacks a variable or ``units`` is unknown.
     """
-    div, xlabel = _im_axis(frag.im, frag.im_units, units)
+    div, xlabel, unit = _im_axis(frag.im, frag.im_units, units)
     ax = _new_axes(ax)
     emp = None
     if ds is not None:
-        _check_vars(ds, ("collapse", "status", frag.im))
+        _check_vars(ds, ("collapse", "status"))
         dims = ("record", "scale")
-        x_im = np.asarray(ds[frag.im].broadcast_like(ds["collapse"]).transpose(*dims), float)
+        x_im = np.asarray(intensity_grid(ds, frag.im).transpose(*dims), float)
         ok = (np.asarray(ds["status"].transpose(*dims)) == 0) & (x_im > 0)
         col = np.asarray(ds["collapse"].transpose(*dims), dtype=bool) & ok
         n_ok = ok.sum(axis=0)
@@ -470,7 +489,7 @@ def fragility(frag, ax=None, *, ds=None, units: str = "g"):
         )
     label = (
         rf"lognormal ({frag.method}): $\theta$ = {frag.median / div:.3g}"
-        rf"{' g' if div == G else ''}, $\sigma$ = {frag.beta_log:.3g}"
+        rf"{' ' + unit if unit else ''}, $\sigma$ = {frag.beta_log:.3g}"
     )
     ax.plot(im / div, frag.prob(im), color="C0", lw=1.8, label=label)
     if emp is not None:

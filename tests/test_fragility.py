@@ -238,3 +238,69 @@ def test_end_to_end_on_a_tiny_housner_ida():
         highest = float(ds.pga_scaled.where(~ds.collapse).max())
         assert lowest / 2 < frag.median < 2 * highest
         assert frag.median_ci[0] <= frag.median <= frag.median_ci[1]
+
+
+# ----------------------------------------------------------------------------- IMs and units
+
+
+def _ida_like(seed=3, n_rec=60, pgv_per_pga=0.08, sa_per_pga=2.5):
+    """Bernoulli runs on an rj.ida-shaped Dataset: per-record pga and pgv coordinates, the
+    IDA's IM sa(0.3) as the variable ``im``; every record's PGV and Sa are fixed multiples of
+    its PGA, so the three IMs differ by a constant factor on every run."""
+    rng = np.random.default_rng(seed)
+    pga = rng.uniform(2.0, 4.0, n_rec)
+    scales = np.linspace(0.1, 2.0, N_SCALE)
+    im = pga[:, None] * scales[None, :]
+    collapse = rng.random(im.shape) < stats.norm.cdf(np.log(im / THETA) / SIGMA)
+    dims = ("record", "scale")
+    return xr.Dataset(
+        {
+            "collapse": (dims, collapse),
+            "status": (dims, np.zeros(im.shape, np.int32)),
+            "pga_scaled": (dims, im, {"units": "m/s^2"}),
+            "im": (dims, sa_per_pga * im, {"units": "m/s^2"}),
+        },
+        coords={
+            "record": [f"r{i}" for i in range(n_rec)],
+            "scale": scales,
+            "pga": ("record", pga, {"units": "m/s^2"}),
+            "pgv": ("record", pgv_per_pga * pga, {"units": "m/s"}),
+        },
+        attrs={"im": "sa(0.3)"},
+    )
+
+
+def test_fragility_by_pga_pgv_and_the_ida_im():
+    """Reference: the probit likelihood depends on the IM only through ln(IM), so multiplying
+    every run's IM by a constant c multiplies the median by c and leaves beta_log unchanged."""
+    ds = _ida_like()
+    by_pga = fragility(ds, "pga", n_boot=0)
+    by_pgv = fragility(ds, "pgv", n_boot=0)
+    default = fragility(ds, n_boot=0)  # the IDA's IM
+    shift_rtol = 1e-8  # two Newton solves converged to 1e-10 in the log parameters
+    assert (by_pga.im, by_pga.im_units) == ("pga", "m/s^2")
+    assert (by_pgv.im, by_pgv.im_units) == ("pgv", "m/s")
+    assert (default.im, default.im_units) == ("sa(0.3)", "m/s^2")
+    np.testing.assert_allclose(by_pgv.median, 0.08 * by_pga.median, rtol=shift_rtol)
+    np.testing.assert_allclose(default.median, 2.5 * by_pga.median, rtol=shift_rtol)
+    np.testing.assert_allclose(
+        [by_pgv.beta_log, default.beta_log], by_pga.beta_log, rtol=shift_rtol
+    )
+    again = fragility(ds, "Sa(0.30)", n_boot=0)
+    assert again.im == "sa(0.3)" and again.median == default.median
+    with pytest.raises(ValueError, match=r"cannot give im='sa\(1\)'.*im='sa\(1\)'"):
+        fragility(ds, "sa(1.0)")
+    with pytest.raises(ValueError, match="cannot give im='pgv'"):
+        fragility(ds.drop_vars("pgv"), "pgv")
+
+
+def test_median_in_g_and_concise_repr():
+    """Reference: g = 9.80665 m/s^2; a non-acceleration IM has no median in g."""
+    ds = _ida_like()
+    frag = fragility(ds, "pga", n_boot=50)
+    np.testing.assert_allclose(frag.median_g, frag.median / 9.80665, rtol=1e-15)
+    np.testing.assert_allclose(frag.median_ci_g, np.array(frag.median_ci) / 9.80665, rtol=1e-15)
+    assert fragility(ds, "pgv", n_boot=0).median_g is None
+    assert fragility(ds, "scale", n_boot=0).median_ci_g is None
+    text = repr(frag)
+    assert len(text) < 200 and "\n" not in text  # one line, not the bootstrap arrays

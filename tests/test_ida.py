@@ -241,3 +241,35 @@ def test_sharding_over_two_host_devices_does_not_change_results():
     )
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.strip().endswith("ok")
+
+
+# ----------------------------------------------------------------------------- intensity measures
+
+
+def test_intensity_measures(housner_ds):
+    """References: the default IM is the PGA (equal to pga_scaled); the PGV of the one-sine
+    record is pga T / pi (trapezoid rule, tolerance of tests/test_motion.py); Sa(T) of each
+    record is rj.response_spectrum's (tests/test_spectra.py checks it against solve_ivp and
+    lsim) times the scale; the IM does not change the runs."""
+    assert housner_ds.attrs["im"] == "pga"
+    np.testing.assert_array_equal(housner_ds["im"], housner_ds["pga_scaled"])
+    np.testing.assert_allclose(housner_ds["im_g"], housner_ds["pga_scaled"] / G, rtol=1e-15)
+    assert housner_ds["im"].attrs["units"] == "m/s^2" and housner_ds["im_g"].attrs["units"] == "g"
+    trapz_rtol = 2.0 * (np.pi**3 / 3 + np.pi**2 / 2) * (0.01 / 0.5) ** 2
+    np.testing.assert_allclose(housner_ds["pgv"][0], 3.0 * 0.5 / np.pi, rtol=trapz_rtol)
+
+    block = rj.Block(**SMALL)
+    kw = dict(model="housner", tail=0.5, progress=False)
+    sa = rj.ida(block, _records(), SCALES, im="Sa(0.5)", **kw)
+    assert sa.attrs["im"] == "sa(0.5)"
+    ref = [float(rj.response_spectrum(r, [0.5]).sa[0]) for r in _records()]
+    np.testing.assert_allclose(sa["im_record"], ref, rtol=1e-15)
+    np.testing.assert_allclose(sa["im"], np.outer(ref, SCALES), rtol=1e-15)
+    np.testing.assert_allclose(sa["im_g"], sa["im"] / G, rtol=1e-15)
+    for var in ("max_theta_over_eta", "collapse", "status", "pga_scaled"):
+        np.testing.assert_array_equal(sa[var], housner_ds[var])
+    pgv = rj.ida(block, _records(), SCALES, im="pgv", **kw)
+    assert pgv["im"].attrs["units"] == "m/s" and "im_g" not in pgv
+    np.testing.assert_allclose(pgv["im"], pgv["pgv"].values[:, None] * SCALES, rtol=1e-15)
+    with pytest.raises(ValueError, match="im must be 'pga', 'pgv' or 'sa\\(T\\)'"):
+        rj.ida(block, _records(), SCALES, im="sa", **kw)

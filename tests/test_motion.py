@@ -250,3 +250,56 @@ def test_intensity_measures_jit_and_vmap():
     np.testing.assert_allclose(
         jax.vmap(lambda p: gm.scaled_to_pga(p).pga)(targets), targets, rtol=1e-15
     )
+
+
+# ------------------------------------------------------------------ units: g and plausibility
+@pytest.mark.parametrize("ctor", ["ricker", "sine_cycle", "ricker_antisymmetric", "cosine_cycle"])
+def test_pulses_accept_pga_in_g(ctor):
+    """Reference: pga_g = x is the record of pga = x * 9.80665 m/s^2 (standard gravity)."""
+    make = getattr(rj.GroundMotion, ctor)
+    in_g = make(pga_g=-0.4, period=0.5, dt=0.01)
+    in_si = make(-0.4 * 9.80665, 0.5, dt=0.01)
+    np.testing.assert_array_equal(in_g.ag, in_si.ag)
+    np.testing.assert_allclose(in_g.pga_g, in_g.pga / 9.80665, rtol=1e-15)
+    with pytest.raises(ValueError, match=r"exactly one of pga \[m/s\^2\] or pga_g \[g\]"):
+        make(pga=1.0, pga_g=0.1, period=0.5)
+    with pytest.raises(ValueError, match=r"exactly one of pga \[m/s\^2\] or pga_g \[g\]"):
+        make(period=0.5)
+    with pytest.raises(ValueError, match="needs period"):
+        make(pga_g=0.3)
+    with pytest.raises(ValueError, match="pga must be one finite number in m/s\\^2"):
+        make(pga=np.nan, period=0.5)  # the argument named, not "ag"
+
+
+def test_plausibility_guard_on_accelerations():
+    """Records and PGAs above 10 g raise with the unit fix; the FEMA P695 records (peaks up to
+    ~1.8 g) and 10 g itself pass."""
+    limit = 10.0 * G
+    rj.GroundMotion(ag=np.array([0.0, limit, -limit]), dt=0.01)  # at the limit: accepted
+    with pytest.raises(ValueError, match=r"did you pass cm/s\^2 or mm/s\^2.*ag / 100"):
+        rj.GroundMotion(ag=np.array([0.0, 350.0, -120.0]), dt=0.01)  # 0.36 g in cm/s^2
+    with pytest.raises(ValueError, match="ag_v of record"):
+        rj.GroundMotion(ag=np.zeros(3), dt=0.01, ag_v=np.array([0.0, 200.0, 0.0]))
+    with pytest.raises(ValueError, match="did you pass cm/s"):
+        rj.GroundMotion.ricker(pga=300.0, period=0.5)
+    with pytest.raises(ValueError, match=r"pga_g is in g.*did you pass m/s\^2"):
+        rj.GroundMotion.ricker(pga_g=4.0 * G, period=0.5)
+    with pytest.raises(ValueError, match="a scaled record must stay below 10 g"):
+        rj.GroundMotion.sine_cycle(pga_g=1.0, period=0.5).scaled(11.0)
+    with pytest.raises(ValueError, match="target_pga of the target peaks at"):
+        rj.GroundMotion.sine_cycle(1.0, 0.5).scaled_to_pga(150.0)
+    # traced values are not checked here (they are data inside jit/vmap, e.g. an IDA's scales)
+    big = jax.jit(lambda s: rj.GroundMotion.sine_cycle(pga_g=1.0, period=0.5).scaled(s).pga)(20.0)
+    np.testing.assert_allclose(big, 20.0 * G, rtol=1e-15)
+
+
+def test_scaled_to_pga_in_g():
+    base = rj.GroundMotion(ag=np.array([0.0, 0.4, -0.8, 0.2]), dt=0.01)
+    np.testing.assert_allclose(base.scaled_to_pga(target_pga_g=0.3).pga, 0.3 * G, rtol=1e-15)
+    np.testing.assert_allclose(base.scaled_to_pga(target_pga_g=0.3).pga_g, 0.3, rtol=1e-15)
+    with pytest.raises(ValueError, match="exactly one of target_pga .m/s.2. or target_pga_g"):
+        base.scaled_to_pga(1.0, target_pga_g=0.1)
+    with pytest.raises(ValueError, match="exactly one of target_pga"):
+        base.scaled_to_pga()
+    with pytest.raises(ValueError, match="target_pga_g must be a positive finite number in g"):
+        base.scaled_to_pga(target_pga_g=-0.3)

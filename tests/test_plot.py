@@ -220,3 +220,24 @@ def test_pairs_facade_against_parapet(tmp_path):
     ax.figure.savefig(tmp_path / "pairs.png")
     with pytest.raises(ValueError, match="share no"):
         plot.pairs(facade, parapet.assign_coords(record=["X", "Y", "Z"]))
+
+
+def test_ida_and_fragility_in_g_for_the_ida_im():
+    """An IDA run with im="sa(T)" is drawn against its IM, in g by default (the Dataset holds
+    m/s^2); "pga" and "pgv" are drawn from the same Dataset."""
+    from rockjax.fragility import fragility
+
+    ds = _ida_dataset()
+    ds = ds.assign(im=(("record", "scale"), 2.0 * ds["pga_scaled"].values, {"units": "m/s^2"}))
+    ds = ds.assign_coords(pgv=("record", [0.2, 0.3, 0.4], {"units": "m/s"}))
+    ds.attrs["im"] = "sa(0.5)"
+    ax = plot.ida(ds)
+    assert ax.get_ylabel() == "$S_a$(0.5 s) [g]"
+    curves = [line for line in ax.get_lines() if line.get_linestyle() == "-"]
+    np.testing.assert_allclose(curves[0].get_ydata(), 2.0 * np.asarray(ds.pga_scaled[0]) / G)
+    assert plot.ida(ds, im="pgv").get_ylabel() == "PGV [m/s]"
+    frag = fragility(ds, n_boot=0)
+    ax = plot.fragility(frag, ds=ds)
+    assert ax.get_xlabel() == "$S_a$(0.5 s) [g]"
+    assert any(f"{frag.median_g:.3g} g" in t for t in _legend_texts(ax))
+    assert plot.fragility(fragility(ds, "pga", n_boot=0)).get_xlabel() == "PGA [g]"
