@@ -10,6 +10,11 @@ Every time is the median of repeated calls after a warm-up call, each ended by
 (the load average is printed at the start and the end). The comparisons that need different
 XLA settings run in subprocesses of this script (``--worker``), because XLA reads its flags
 once, when its CPU backend starts. Results and their reading: docs/benchmarks.md, "## DEM".
+
+The step is the default one, ``rj.stable_dt(block, beta)``: chosen for accuracy
+(``accuracy / (omega_max (1 + zeta))``, docs/theory.md "Time stepping"), so the steps per record
+sample printed below follow that rule. To time an older version of rockjax with this script,
+put it first on ``PYTHONPATH``.
 """
 
 from __future__ import annotations
@@ -358,7 +363,7 @@ def main() -> None:
 
     print(
         f"\n2. One {HISTORY_S:g} s history (Ricker pga 3 m/s^2, T 0.5 s, record dt {RECORD_DT} s), "
-        f"beta = beta_dejong(block), dt = stable_dt; median of 7"
+        f"beta = beta_dejong(block), dt = stable_dt (the default); median of 7"
     )
     print(
         f"  {'block':<8}{'how':<42}{'steps':>8}{'median ms':>11}{'min ms':>9}{'ns/step':>9}   ratio vs 5 ms"

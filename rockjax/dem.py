@@ -9,12 +9,15 @@ sub-contact (see :mod:`rockjax.contact` for the two damping conventions). A faca
 (``mode="one_sided"``) also has a rigid return wall at its -x face, a distance ``gap`` behind
 it, meeting sub-contacts on the block's back face (same joint stiffness per unit area).
 
-Integration: central differences with the damping force evaluated from the lagged half-step
-velocity, as in 3DEC/UDEC. Its stability limit is
-``dt <= (2 / omega_max) (sqrt(1 + zeta^2) - zeta)``, ``zeta = beta omega_max / 2``, where
-``omega_max`` is the highest frequency of the block on all its springs closed (an upper bound
-for any subset of closed contacts). The step is ``DT_SAFETY`` times that limit, rounded down
-to divide the record step, so the ground motion is sampled exactly at the record samples and
+Integration: central differences with centred dashpots (the dashpot force uses the velocity
+at the step, the mean of the two half-step velocities, so the scheme is second-order accurate;
+one 3 x 3 solve per step). Its stability limit is ``dt <= 2 / omega_max`` whatever ``beta``,
+where ``omega_max`` is the highest frequency of the block on all its springs closed (an upper
+bound for any subset of closed contacts). The default step is chosen for accuracy:
+``dt = accuracy / (omega_max (1 + zeta))``, ``zeta = beta omega_max / 2``, ``accuracy`` from
+:data:`DT_ACCURACY` (the derivation and the convergence study are in docs/theory.md and
+docs/verification.md), capped at ``DT_SAFETY`` times the stability limit and rounded down to
+divide the record step, so the ground motion is sampled exactly at the record samples and
 interpolated linearly in between.
 
 Scan layout: an outer scan over record samples (one output sample each, the carry
@@ -40,8 +43,13 @@ from .response import STATUS_MESSAGES, STATUS_NONFINITE, STATUS_OK, STATUS_UNSTA
 MODES = ("two_sided", "one_sided")
 
 DT_SAFETY = 0.5
-"""Fraction of the explicit stability limit used as the default step. At 0.5 the peak rotation
-of a free-rocking history changes by well under 0.5 % when the step is halved (see the tests)."""
+"""Largest fraction of the explicit stability limit a default step may take."""
+
+DT_ACCURACY = {"two_sided": 0.5, "one_sided": 0.35}
+"""Default ``accuracy`` per mode: the step is ``accuracy / (omega_max (1 + zeta))`` [s]. With
+these the first-impact restitution of parapets with h/b 4-24 at beta up to 1.5 beta_DeJong is
+within 1e-3 of its dt -> 0 limit, and the first rebound peak of facades within 2 % of a 16x
+finer step (docs/verification.md, "DEM time step: convergence")."""
 
 DEFAULT_SAVE_DT = 0.002
 """Output interval [s] for free rocking (no record)."""
@@ -216,10 +224,34 @@ def omega_max(params: DemParams):
 
 @jax.jit
 def critical_dt(params: DemParams):
-    """Explicit stability limit [s]: ``(2/omega_max)(sqrt(1+zeta^2) - zeta)``, ``zeta = beta omega_max/2``."""
+    """Stability limit [s] of central differences with centred dashpots: ``2 / omega_max``
+    (damping does not lower it)."""
+    return 2.0 / omega_max(params)
+
+
+@jax.jit
+def default_step(params: DemParams, accuracy):
+    """The default step [s] before rounding: ``accuracy / (omega_max (1 + zeta))``,
+    ``zeta = beta omega_max / 2``, at most ``DT_SAFETY * critical_dt(params)``.
+
+    The step resolves the stiffest contact mode (``omega_max dt = accuracy`` at ``beta = 0``:
+    central differences err by ``(omega dt)^2 / 24`` in its frequency) and, when that mode is
+    overdamped, the relaxation time ``~1 / (2 zeta omega_max)`` of its dashpot, which the
+    centred (trapezoidal) dashpot resolves only while ``2 zeta omega_max dt`` is small. The
+    impact velocity drops out: the penalty contact is linear, so the penetration and the
+    onset band scale together with it.
+    """
+    return _steps(params, accuracy)[1]
+
+
+def _steps(params: DemParams, accuracy):
+    """``(critical_dt, default_step)`` from one eigenvalue solve."""
     w = omega_max(params)
     zeta = 0.5 * params.beta * w
-    return 2.0 / w * (jnp.sqrt(1.0 + zeta**2) - zeta)
+    return 2.0 / w, jnp.minimum(accuracy / (w * (1.0 + zeta)), DT_SAFETY * 2.0 / w)
+
+
+_steps_jit = jax.jit(_steps)
 
 
 def stable_dt(
@@ -230,24 +262,44 @@ def stable_dt(
     n_sub: int = 2,
     gap=0.0,
     dashpot: str = "closed",
-    safety: float = DT_SAFETY,
+    accuracy: float | None = None,
 ) -> float:
-    """Default DEM time step [s]: ``safety`` times the explicit stability limit.
+    """The default DEM time step [s]: stable, and chosen for accuracy (before rounding to
+    divide the record step).
 
-    Use it to fix the step outside a transform (e.g. the largest ``beta`` of a calibration) and
-    pass it as ``simulate_dem(..., dt=...)`` inside ``jit``/``vmap``/``grad``.
+    ``accuracy / (omega_max (1 + zeta))`` with ``zeta = beta omega_max / 2``, at most
+    ``DT_SAFETY`` times the stability limit ``2 / omega_max`` (see :func:`default_step`,
+    docs/theory.md "Time stepping"). It decreases with ``beta``, so the step for the largest
+    ``beta`` of a sweep serves them all. Use it to fix the step outside a transform and pass it
+    as ``simulate_dem(..., dt=...)`` inside ``jit``/``vmap``/``grad``.
 
     Args:
         block: The block.
         beta: Stiffness-proportional damping coefficient [s], Eq. (1).
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
         n_sub: Sub-contacts per face.
-        gap: Facade gap [m] (does not change the limit).
-        dashpot: Damping convention (does not change the limit).
-        safety: Fraction of the limit.
+        gap: Facade gap [m] (does not change the step).
+        dashpot: Damping convention (does not change the step).
+        accuracy: ``omega_max dt (1 + zeta)`` [-]; default ``DT_ACCURACY[mode]`` (0.5 for
+            parapets, 0.35 for facades: first-impact ``e`` within 1e-3 of its converged value,
+            facade rebound peaks within 2 %; docs/verification.md). Smaller is finer; values
+            above ``2 DT_SAFETY / (1 + zeta)`` give the stability-based step.
     """
+    accuracy = _check_accuracy(accuracy, mode)
     params = dem_params(block, beta, mode=mode, n_sub=n_sub, gap=gap, dashpot=dashpot)
-    return float(safety * critical_dt(params))
+    return float(default_step(params, accuracy))
+
+
+def _check_accuracy(accuracy, mode):
+    if accuracy is None:
+        return DT_ACCURACY.get(mode, DT_ACCURACY["two_sided"])
+    if not (isinstance(accuracy, (int, float)) and np.isfinite(accuracy) and accuracy > 0):
+        raise ValueError(
+            f"accuracy (omega_max dt (1 + zeta), dimensionless) must be a positive float; got "
+            f"accuracy={accuracy!r}. Leave accuracy=None for the default "
+            f"({DT_ACCURACY[mode] if mode in DT_ACCURACY else DT_ACCURACY}); smaller is finer."
+        )
+    return float(accuracy)
 
 
 def _point_kinematics(state: DemState, u, v, c, s):
@@ -263,10 +315,14 @@ def _point_kinematics(state: DemState, u, v, c, s):
 
 
 def _contact_forces(params: DemParams, state: DemState, dt, c, s):
-    """Resultant contact force and clockwise moment on the block, and the new shear springs."""
+    """Resultant contact force and clockwise moment on the block (dashpots at the lagged
+    half-step velocity), the new shear springs, and the dashpot matrix ``C`` in the generalised
+    coordinates ``(x, y, theta)``: its entries ``(Cxx, Cyy, Cxt, Cyt, Ctt)`` (``Cxy = 0``)."""
     fx = fy = mom = 0.0
+    cxx = cyy = cxt = cyt = ctt = 0.0
     fn_base, fs_base = [], []
     dt_onset = dt if params.onset == "sub_step" else None
+    clipped = params.dashpot == "clipped"
     for i in range(len(state.fs_base)):
         u, v = params.u_base[i], params.v_base[i]
         rx, ry, _, y_pt, xd_pt, yd_pt = _point_kinematics(state, u, v, c, s)
@@ -279,6 +335,13 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s):
         fx, fy, mom = fx + ft, fy + fn, mom + (ry * ft - rx * fn)
         fn_base.append(fn)
         fs_base.append(fs)
+        # vertical point velocity = J_y . (vx, vy, w) with J_y = (0, 1, -rx); horizontal J_x = (1, 0, ry)
+        c_n = frac * params.beta * params.kn_base[i]
+        if clipped:  # a clipped dashpot acts only where the total force is compressive
+            c_n = jnp.where(fn > 0, c_n, 0.0)
+        c_s = frac * params.beta * params.ks_base[i]
+        cyy, cyt, ctt = cyy + c_n, cyt - c_n * rx, ctt + c_n * rx * rx
+        cxx, cxt, ctt = cxx + c_s, cxt + c_s * ry, ctt + c_s * ry * ry
     fs_wall = []
     wall_x = -0.5 * params.b - params.gap
     for j in range(len(state.fs_wall)):
@@ -292,22 +355,44 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s):
         )
         fx, fy, mom = fx + fn, fy + ft, mom + (ry * fn - rx * ft)
         fs_wall.append(fs)
-    return fx, fy, mom, tuple(fn_base), tuple(fs_base), tuple(fs_wall)
+        c_n = frac * params.beta * params.kn_wall[j]
+        if clipped:
+            c_n = jnp.where(fn > 0, c_n, 0.0)
+        c_s = frac * params.beta * params.ks_wall[j]
+        cxx, cxt, ctt = cxx + c_n, cxt + c_n * ry, ctt + c_n * ry * ry
+        cyy, cyt, ctt = cyy + c_s, cyt - c_s * rx, ctt + c_s * rx * rx
+    damping = (cxx, cyy, cxt, cyt, ctt)
+    return fx, fy, mom, tuple(fn_base), tuple(fs_base), tuple(fs_wall), damping
 
 
 def _step(params: DemParams, state: DemState, ag, ag_v, dt):
-    """One central-difference step; also returns the accelerations at step n.
+    """One central-difference step with centred dashpots; also returns the accelerations at
+    step n.
 
-    ``cos``/``sin`` of theta are carried and advanced by the exact rotation through
-    ``dtheta = dt w``, with its cosine and sine from their Taylor series: ``|dtheta| < 1e-2``
-    in any stable step, so the truncation (``dtheta^6/720``) is below 1e-15, and no
-    transcendental function is evaluated in the loop.
+    The dashpot force uses the velocity at step n, ``v_n = (v_{n-1/2} + v_{n+1/2}) / 2``
+    (the textbook central-difference method, second-order accurate): with ``F`` the force
+    with the dashpots at the lagged velocity ``v_{n-1/2}`` and ``C`` the dashpot matrix,
+    ``(M + dt/2 C) a_n = F``, a 3 x 3 solve (``C`` has no x-y coupling, so it is done by
+    elimination of ``theta``). ``cos``/``sin`` of theta are carried and advanced by the exact
+    rotation through ``dtheta = dt w``, with its cosine and sine from their Taylor series:
+    ``|dtheta| < 1e-2`` in any stable step, so the truncation (``dtheta^6/720``) is below
+    1e-15, and no transcendental function is evaluated in the loop.
     """
     c, s = state.c, state.s
-    fx, fy, mom, fn, fs_base, fs_wall = _contact_forces(params, state, dt, c, s)
-    ax = fx / params.m - ag
-    ay = fy / params.m - (G + ag_v)
-    aw = mom / params.I_c
+    fx, fy, mom, fn, fs_base, fs_wall, (cxx, cyy, cxt, cyt, ctt) = _contact_forces(
+        params, state, dt, c, s
+    )
+    h = 0.5 * dt
+    gx = fx - params.m * ag
+    gy = fy - params.m * (G + ag_v)
+    axx = params.m + h * cxx
+    ayy = params.m + h * cyy
+    axt, ayt = h * cxt, h * cyt
+    att = params.I_c + h * ctt
+    rxx, ryy = axt / axx, ayt / ayy
+    aw = (mom - rxx * gx - ryy * gy) / (att - rxx * axt - ryy * ayt)
+    ax = (gx - axt * aw) / axx
+    ay = (gy - ayt * aw) / ayy
     vx = state.vx + dt * ax
     vy = state.vy + dt * ay
     w = state.w + dt * aw
@@ -477,6 +562,7 @@ def simulate_dem(
     theta0=0.0,
     duration: float | None = None,
     dt: float | None = None,
+    accuracy: float | None = None,
     n_sub: int = 2,
     phi_deg=None,
     dashpot: str = "closed",
@@ -497,8 +583,12 @@ def simulate_dem(
         theta0: Initial rotation [rad], released from rest on its pivot corner; ``|theta0| < eta``.
         duration: Length of the run [s]; default the record's. A longer duration appends zeros
             (free vibration after the record); a shorter one truncates it.
-        dt: Time step [s]; default ``stable_dt(...)``. The step used is the largest divisor of the
-            output step not above ``dt``. A step above the stability limit is refused.
+        dt: Time step [s]; default ``stable_dt(...)`` (chosen for accuracy, see ``accuracy``).
+            The step used is the largest divisor of the output step not above ``dt``. A step
+            above the stability limit is refused.
+        accuracy: Accuracy of the default step, ``omega_max dt (1 + zeta)`` [-] (ignored when
+            ``dt`` is given); default ``DT_ACCURACY[mode]``, which puts the first-impact ``e``
+            within 1e-3 of its converged value (docs/verification.md). Smaller is finer.
         n_sub: Sub-contact points per face (>= 2; 2 puts them at the corners).
         phi_deg: Friction angle [deg]; default 50 (parapets) or 30 (facades), as in the paper.
         dashpot: ``"closed"`` (default) or ``"clipped"``; see :mod:`rockjax.contact`.
@@ -530,9 +620,10 @@ def simulate_dem(
     )
     _check_theta0(theta0, block, mode)
     ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
-    limit = _concrete_limit(params, block, beta_max, n_sub, mode, dashpot, dt)
+    accuracy = _check_accuracy(accuracy, mode)
+    limit, dt_default = _concrete_steps(params, block, beta_max, n_sub, mode, dashpot, dt, accuracy)
     if dt is None:
-        dt_target = DT_SAFETY * limit
+        dt_target = dt_default
     else:
         if not (np.isfinite(dt) and dt > 0):
             raise ValueError(
@@ -541,7 +632,8 @@ def simulate_dem(
         if limit is not None and dt > limit * (1 + 1e-9):
             raise ValueError(
                 f"dt={dt:.4g} s exceeds the explicit stability limit {limit:.4g} s of this block "
-                f"at beta={_fmt(beta)} s. Use dt <= {DT_SAFETY * limit:.4g} s or leave dt=None."
+                f"at beta={_fmt(beta)} s. Use dt <= {limit:.4g} s or leave dt=None (default "
+                f"{dt_default:.4g} s, chosen for accuracy)."
             )
         dt_target = dt
     n_in = max(1, math.ceil(dt_out / dt_target - 1e-9))
@@ -573,22 +665,24 @@ def _check_theta0(theta0, block, mode):
         )
 
 
-def _concrete_limit(params, block, beta_max, n_sub, mode, dashpot, dt):
-    """The stability limit [s] as a float, or None when it cannot be known outside the trace."""
+def _concrete_steps(params, block, beta_max, n_sub, mode, dashpot, dt, accuracy):
+    """``(stability limit, default step)`` [s] as floats, or ``(None, None)`` when they cannot
+    be known outside the trace."""
     if beta_max is not None:
         try:  # rebuilt from the block: params may be tracers when only beta is traced
             with jax.ensure_compile_time_eval():
-                return float(critical_dt(dem_params(block, beta_max, mode=mode, n_sub=n_sub)))
+                p_max = dem_params(block, beta_max, mode=mode, n_sub=n_sub, dashpot=dashpot)
+                return tuple(map(float, _steps_jit(p_max, accuracy)))
         except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
             raise ValueError(
                 "beta_max cannot size the time step when the block itself is traced; pass "
                 "dt=rj.stable_dt(block, beta_max) computed outside the transform."
             ) from None
     try:
-        return float(critical_dt(params))
+        return tuple(map(float, _steps_jit(params, accuracy)))
     except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
         if dt is not None:
-            return None  # checked inside the trace (status / error_if)
+            return None, None  # checked inside the trace (status / error_if)
         raise ValueError(
             "simulate_dem was called with traced inputs (inside jit/vmap/grad), so the time step "
             "cannot be chosen automatically. Pass dt=rj.stable_dt(block, beta_max) computed "
