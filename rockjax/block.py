@@ -4,6 +4,7 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
 from ._checks import check_positive, concrete
 from ._types import ScalarLike
@@ -47,7 +48,8 @@ class Block(eqx.Module):
         check_positive("rho", self.rho, "kg/m^3", "Masonry is about 1800-2400 kg/m^3.")
         check_positive("E", self.E, "Pa", "Give E in pascals, e.g. 1.8e9 for 1800 MPa.")
         nu = concrete(self.nu)
-        if nu is not None and not (jnp.all(jnp.isfinite(nu)) and jnp.all((nu > -1) & (nu < 0.5))):
+        # NumPy, not jnp: inside jit every jnp operation is staged, even on a Python float
+        if nu is not None and not (np.all(np.isfinite(nu)) and np.all((nu > -1) & (nu < 0.5))):
             raise ValueError(
                 f"nu (Poisson ratio, dimensionless) must lie in (-1, 0.5); got nu={self.nu}."
             )

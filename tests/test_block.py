@@ -54,3 +54,9 @@ def test_top_displacement_is_the_rotated_top_centre(theta):
     c, s = np.cos(theta), np.sin(theta)
     rotated = np.array([[c, s], [-s, c]]) @ rel  # theta > 0 moves the top toward +x
     np.testing.assert_allclose(blk.top_displacement(theta), rotated[0] - rel[0], atol=1e-15)
+
+
+def test_block_can_be_built_inside_jit():
+    """A Block made from Python floats inside a jitted function (its checks run in NumPy)."""
+    eta = jax.jit(lambda h: rj.Block(b=0.25, h=3.0, nu=0.2).eta * h)(1.0)
+    np.testing.assert_allclose(eta, np.arctan(0.25 / 3.0), rtol=1e-14)
