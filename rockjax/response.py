@@ -10,10 +10,15 @@ from jaxtyping import Array, Bool, Float, Int
 STATUS_OK = 0
 STATUS_NONFINITE = 1
 STATUS_UNSTABLE = 2
+STATUS_UNRESOLVED = 3
 STATUS_MESSAGES = {
     STATUS_OK: "ok",
     STATUS_NONFINITE: "the state became non-finite (NaN/inf): reduce dt or check the inputs",
     STATUS_UNSTABLE: "dt exceeds the explicit stability limit: leave dt=None or use rj.stable_dt",
+    STATUS_UNRESOLVED: (
+        "Housner: a solver step needed more impacts than max_impacts_per_step (the block was "
+        "stopped there): raise max_impacts_per_step or pass a smaller dt"
+    ),
 }
 
 

@@ -1,10 +1,12 @@
 """Tests of rockjax.housner: Housner rocking with impacts, solved with diffrax.
 
 Independent references: energy conservation between impacts and the impact map (V ratio e^2
-per impact), quadrature of the energy integral for impact times (scipy), the numbers of
-REFERENCES.md Sect. 3.1 (computed there with an independent solver), the quasi-static uplift
-condition |a_g| > g tan(eta), the geometric series of impact velocities for the rest rule,
-dimensional similarity (REFERENCES Sect. 3.3), and central finite differences for derivatives.
+per impact), quadrature of the energy integral for impact times (scipy), the Housner numbers of
+docs/verification.md ("Reference facts and their sources": Housner (1963) closed forms and
+numbers, computed with an independent solver), the quasi-static uplift condition
+|a_g| > g tan(eta), the Zeno time of free rocking by quadrature for the rest rule, dimensional
+similarity (same page, "Similarity"), and central finite differences for derivatives.
+Broadband records against an event-driven solver: tests/test_housner_events.py.
 """
 
 import math
@@ -15,20 +17,22 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from helpers import housner_time_to_impact
+from scipy.integrate import quad
 
 import rockjax as rj
 from rockjax.constants import G
+from rockjax.housner import REST_HORIZON
 from rockjax.response import STATUS_NONFINITE, STATUS_OK, STATUS_UNSTABLE, find_peaks
 
 # Energy is conserved between impacts up to Tsit5's error, (p dt)^6 ~ 1e-15 per step at
 # p dt = 0.005, over a few hundred steps; the impact map is exact.
 ENERGY_RTOL = 1e-9
 # Peaks from the theta history: a 3-point parabola at dt = 1 ms is off by ~theta'''' dt^4
-# ~ 1e-11 rad, i.e. ~1e-9 in V; the issue asks for 1e-6.
+# ~ 1e-11 rad, i.e. ~1e-9 in V; 1e-6 leaves room.
 PEAK_V_RTOL = 1e-6
-# Impact times: the issue asks for 1e-6 s (measured error at dt = 5 ms: 5e-10 s).
+# Impact times to 1e-6 s (measured error at dt = 5 ms: 5e-10 s).
 IMPACT_T_ATOL = 1e-6
-# REFERENCES.md prints 6 decimals: half a unit in the last place, plus the 1e-6 of the issue.
+# The reference numbers have 6 decimals: half a unit in the last place, plus 1e-6.
 REF6_ATOL = 5e-7 + 1e-6
 # Same computation compiled two ways (jit vs eager, vmap vs loop): only rounding differs.
 SAME_RTOL = 1e-12
@@ -36,7 +40,7 @@ SAME_RTOL = 1e-12
 # only rounding differs, amplified a little by the impacts.
 SIMILARITY_ATOL = 1e-9
 # Central differences with relative step 1e-6: truncation ~1e-12, round-off ~1e-10; the
-# issue asks for 1e-4, the derivatives measured agree to ~1e-9.
+# derivatives measured agree to ~1e-9.
 FD_RTOL = 1e-6
 FD_STEP = 1e-6
 # theta_max between samples: the constant-acceleration parabola through a turning step errs by
@@ -46,7 +50,7 @@ THETA_MAX_RTOL = 1e-5
 ONE_SIDED_ATOL = 1e-12
 
 ETA = 0.2
-# REFERENCES Sect. 3.1 numbers: eta = 0.2, R = 1 m, computed with g = 9.81 m/s^2 (checked:
+# docs/verification.md, Housner (1963) numbers: eta = 0.2, R = 1 m, g = 9.81 m/s^2 (checked:
 # p t_1 = 1.318504 gives the tabulated 0.486090 s only with g = 9.81); we compare p t.
 P_REF = math.sqrt(3.0 * 9.81 / 4.0)
 REF_PEAKS = np.array([0.420356, 0.358023, 0.307494, 0.265648])  # theta/eta after impacts 1-4
@@ -55,7 +59,7 @@ REF_TIMES = np.array([0.486090, 1.328860, 2.076528, 2.749183])  # impact times [
 
 @pytest.fixture(scope="module")
 def block():
-    """eta = 0.2 rad and R = 1 m exactly, the REFERENCES Sect. 3.1 block."""
+    """eta = 0.2 rad and R = 1 m exactly, the block of the reference numbers."""
     return rj.Block(b=2.0 * math.sin(ETA), h=2.0 * math.cos(ETA))
 
 
@@ -73,10 +77,15 @@ def _e_h(eta=ETA):
 
 
 def _impacts(resp):
-    """Impact times [s] (exact, from the solver's root-find) and sample indices after each."""
+    """Impact times [s] (exact, from the solver's root-find) and sample indices after each, for
+    the samples after exactly one impact: the rocking phase. The chatter at the end of free
+    rocking packs several impacts between two samples; those samples are left out."""
     n = np.asarray(resp.extras["n_impacts"])
-    idx = np.flatnonzero(np.diff(n)) + 1
-    assert np.all(np.diff(n) <= 1), "more than one impact between two samples"
+    jumps = np.diff(n)
+    first_multi = np.flatnonzero(jumps > 1)
+    end = first_multi[0] if first_multi.size else jumps.size
+    idx = np.flatnonzero(jumps[:end] == 1) + 1
+    assert idx.size > 0, "no single impacts"
     return np.asarray(resp.extras["t_last_impact"])[idx], idx
 
 
@@ -135,7 +144,7 @@ def test_impact_times_and_peaks_match_quadrature(block):
 def test_free_rocking_matches_references_table(block):
     resp = rj.simulate_housner(block, theta0=0.5 * ETA, duration=3.0)
     t_imp, idx = _impacts(resp)
-    # REFERENCES used g = 9.81: compare dimensionless times p t.
+    # The reference numbers use g = 9.81: compare dimensionless times p t.
     np.testing.assert_allclose(t_imp[:4] * float(block.p) / P_REF, REF_TIMES, atol=REF6_ATOL)
     m_g_r = float(block.m * G * block.R)
     peaks = _theta_from_v(np.asarray(resp.energy)[idx[:4]] / m_g_r)
@@ -159,17 +168,41 @@ def test_impact_time_error_converges_at_fifth_order(block):
     assert np.all(orders > 4.5), (errors, orders)
 
 
-def test_free_rocking_comes_to_rest_after_the_predicted_impact_count(block):
-    # Reference: impact speeds form a geometric series. Before impact 1 the speed is
-    # v1 = p sqrt(2 V(theta0)); after impact n it is e^n v1; the block rests once that drops
-    # below the threshold p^2 sin(eta) dt_step (its next flight would last < 2 steps).
+def test_free_rocking_comes_to_rest_at_the_end_of_its_zeno_sequence(block):
+    # Reference: free rocking is a sequence of flights that ends at the finite (Zeno) time
+    # t_Z = t_fall(theta0) + sum_k 2 t_fall(theta_k), theta_k from V(theta_k) = e^(2k) V(theta0),
+    # each fall time by quadrature. The rest rule (docs/theory.md) stops the impacts once the
+    # rest of the sequence, estimated with the restoring acceleration at theta = 0,
+    # A = p^2 sin(eta), lasts T = 2 w / ((1 - e) A) <= REST_HORIZON dt_record / 2, w the
+    # rebound speed e^n v1 (energy conservation: v1 = p sqrt(2 V(theta0))). So the block is put
+    # to rest at an impact t_rest <= t_Z <= t_rest + REST_HORIZON dt_record / 2, after the
+    # counted impacts.
     e, theta0 = _e_h(), 0.5 * ETA
     resp = rj.simulate_housner(block, theta0=theta0, duration=30.0)
-    p, dt_step = float(block.p), float(resp.extras["dt"])
+    p, dt_rec = float(block.p), float(resp.t[1] - resp.t[0]) * REST_HORIZON
     v1 = p * math.sqrt(2.0 * _v(theta0))
-    expected = math.ceil(math.log(v1 / (p**2 * math.sin(ETA) * dt_step)) / -math.log(e))
+    a_rest = p**2 * math.sin(ETA)
+    expected = math.ceil(math.log(4.0 * v1 / ((1.0 - e) * a_rest * dt_rec)) / -math.log(e))
     n = np.asarray(resp.extras["n_impacts"])
     assert n[-1] == expected
+
+    def fall(theta_k):  # as helpers.housner_time_to_impact, without the cancellation
+        def integrand(u):
+            gap = theta_k * u * u  # theta_k - theta
+            rate2 = 4.0 * p**2 * math.sin(ETA - theta_k + 0.5 * gap) * math.sin(0.5 * gap)
+            if u == 0.0:
+                return 2.0 * math.sqrt(theta_k / (2.0 * p**2 * math.sin(ETA - theta_k)))
+            return 2.0 * theta_k * u / math.sqrt(rate2)
+
+        return quad(integrand, 0.0, 1.0, epsabs=1e-15, epsrel=1e-13, limit=200)[0]
+
+    t_z, k = fall(theta0), 1
+    while e ** (2 * k) * _v(theta0) > 1e-12 * math.sin(ETA):  # down to theta_k ~ 1e-12 rad
+        t_z += 2.0 * fall(_theta_from_v(e ** (2 * k) * _v(theta0)))
+        k += 1
+    t_rest = float(resp.extras["t_last_impact"][-1])
+    assert t_rest <= t_z <= t_rest + 0.5 * dt_rec, (t_rest, t_z)
+    assert t_z - t_rest > 0.5 * e * dt_rec  # and not one impact earlier
     assert int(resp.extras["n_unresolved"]) == 0
     at_rest = np.asarray(resp.extras["pivot"]) == 0
     assert at_rest[-1] and np.all(at_rest[np.argmax(at_rest) :])  # rests for good
@@ -224,7 +257,7 @@ def test_vertical_acceleration_lowers_the_uplift_threshold(block):
 
 @pytest.mark.parametrize("factor, overturns", [(0.995, False), (1.005, True)])
 def test_rectangular_pulse_overturning_threshold(block, factor, overturns):
-    # REFERENCES Sect. 3.1: eta = 0.2, p t_p = 0.5 -> psi = a_p / (g tan eta) = 2.54595
+    # docs/verification.md, Housner (1963) numbers: eta = 0.2, p t_p = 0.5 -> psi = 2.54595
     # (nonlinear EOM, first half-cycle, so e does not matter). The pulse is built so that the
     # linear interpolation of the samples has exactly the impulse a_p t_p: N full samples
     # then zeros put the ramp's half-sample on top, (N - 1/2) dt = t_p.
@@ -302,7 +335,7 @@ def test_one_sided_lifts_only_for_outward_acceleration(block):
 
 
 def test_scaling_size_and_pulse_together_keeps_theta_of_pt(block):
-    # REFERENCES Sect. 3.3: theta/eta = Phi(omega_p/p, psi, eta, e). R = 1 m and 4 m with
+    # docs/verification.md, Similarity: theta/eta = Phi(omega_p/p, psi, eta, e). R = 1, 4 m with
     # omega_p / p = 3 and psi = 2; sampling dt scaled with 1/p so samples match in p t.
     big = rj.Block(b=4.0 * float(block.b), h=4.0 * float(block.h))
     out = []
