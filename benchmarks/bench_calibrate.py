@@ -54,20 +54,9 @@ RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", "c
 def dem_e(block, betas, beta_max):
     """The DEM's least-squares restitution at ``betas`` (signed log gap against Housner with
     e = 1, i.e. ``log e_DEM``), through the same compiled batch as the grid baseline."""
-    problem, _ = cal._make_problem(
-        block,
-        e=1.0,
-        target="e",
-        mode="two_sided",
-        theta0=None,
-        n_bounces=None,
-        beta_max=beta_max,
-        dashpot="closed",
-        gap=0.0,
-        onset="sub_step",
-    )
+    problem = cal.problem(block, 1.0, target="e", mode="two_sided", beta_max=beta_max)
     x = np.pad(np.asarray(betas, float), (0, 64 - len(betas)), mode="edge")
-    gap = cal._stats_batch(problem, jnp.asarray(x))[1]
+    gap = cal.stats_batch(problem, jnp.asarray(x))[1]
     return np.exp(np.asarray(gap)[: len(betas)])
 
 

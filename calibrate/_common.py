@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-import json
 import shlex
 import sys
 import time
@@ -13,6 +12,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import numpy as np  # noqa: E402
+
+from rockjax import jsonio  # noqa: E402
 
 
 def command_line() -> str:
@@ -38,22 +39,6 @@ class Progress:
         return time.perf_counter() - self.t0
 
 
-def _clean(v):
-    if isinstance(v, np.ndarray):
-        return [_clean(x) for x in v.tolist()]
-    if isinstance(v, (list, tuple)):
-        return [_clean(x) for x in v]
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, (float, np.floating)):
-        return None if not np.isfinite(v) else float(v)
-    if isinstance(v, np.integer):
-        return int(v)
-    if isinstance(v, np.bool_):
-        return bool(v)
-    return v
-
-
 def write_csv(path: Path, rows: list[dict], note: str = "") -> None:
     """Write ``rows`` (dicts with the same keys) to CSV, headed by ``# command`` comment lines."""
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -75,7 +60,7 @@ def write_json(path: Path, payload: dict, seconds: float) -> None:
         "date_utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
         "wall_time_s": round(seconds, 1),
     }
-    path.write_text(json.dumps(_clean({**head, **payload}), indent=1) + "\n")
+    jsonio.write_json(path, {**head, **payload}, indent=1)
 
 
 def linear_fit(x, y, intercept: float | None = None) -> dict:

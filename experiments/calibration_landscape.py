@@ -4,7 +4,7 @@ step grid (``onset="step"``).
 
 Block 0.25 x 3 m, target e = 0.95, release theta0 = eta/2, two-sided (the defaults of
 ``rj.fit_beta``). The loss is evaluated with the same helpers ``fit_beta`` uses
-(``rockjax.calibration._make_problem`` / ``_stats``); the derivative is forward mode
+(``rockjax.calibration.problem`` / ``stats``); the derivative is forward mode
 (``jax.jvp``) wrt beta, vmapped over the grid, and is compared with finite differences.
 
     python experiments/calibration_landscape.py [--out experiments/results] [--n 40]
@@ -32,20 +32,9 @@ ONSETS = ("sub_step", "step")
 
 
 def make(block, onset, beta_max):
-    problem, resps = cal._make_problem(
-        block,
-        e=E,
-        target="e",
-        mode="two_sided",
-        theta0=None,
-        n_bounces=None,
-        beta_max=beta_max,
-        dashpot="closed",
-        gap=0.0,
-        onset=onset,
-    )
-    housner = resps[0]
-    t_last = cal._last_compared_time(housner, problem)
+    problem = cal.problem(block, E, target="e", mode="two_sided", beta_max=beta_max, onset=onset)
+    housner = cal.housner_reference(problem)[0]
+    t_last = cal.last_compared_time(housner, problem)
     return problem, housner, t_last
 
 
@@ -54,9 +43,9 @@ def evaluator(problem, housner, t_last):
     t_ref = np.asarray(housner.t)
 
     def f(beta):
-        st = cal._stats(problem, beta)
+        st = cal.stats(problem, beta)
         loss, gap = st[0], st[1]
-        r = cal._dem(problem, beta, problem.theta0[0])
+        r = cal.dem_run(problem, beta)
         n = min(r.theta.shape[0], th_ref.shape[0])
         w = (jnp.asarray(t_ref[:n]) <= t_last).astype(float)
         herr = metrics.history_error(r.theta[:n], th_ref[:n], w)

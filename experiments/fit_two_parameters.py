@@ -60,13 +60,13 @@ def main(argv=None):
         f"{fit.n_iterations} iterations, {fit.n_simulations} runs, {fit.seconds:.2f} s"
     )
 
-    problem = cal._history_problem(nominal, meas, 0.002, "two_sided", 8)
+    problem = cal.history_problem(nominal, meas, 0.002, "two_sided", 8)
     # grids offset from the true values (a grid does not know them)
     betas = np.linspace(0.0021, 0.0061, args.n)
     bs = np.linspace(0.2213, 0.2613, args.n)
     bb, ww = np.meshgrid(betas, bs, indexing="ij")
     u = np.stack([np.log(bb / 0.002), np.log(ww / NOMINAL_B)], axis=-1).reshape(-1, 2)
-    loss_map = eqx.filter_jit(jax.vmap(cal._history_loss, in_axes=(0, None)))
+    loss_map = eqx.filter_jit(jax.vmap(cal.history_loss, in_axes=(0, None)))
     jax.block_until_ready(loss_map(jnp.asarray(u[:4]), problem))  # compile a small batch
     t0 = time.perf_counter()
     vals = []

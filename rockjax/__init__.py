@@ -36,6 +36,7 @@ jax.config.update("jax_enable_x64", True)
 
 from . import calibration as calibration  # noqa: E402
 from . import campaign as campaign  # noqa: E402  (dask is imported lazily inside)
+from . import jsonio as jsonio  # noqa: E402
 from . import metrics as metrics  # noqa: E402
 from . import plot as plot  # noqa: E402  (matplotlib is imported lazily inside)
 from . import pulses as pulses  # noqa: E402
@@ -92,6 +93,7 @@ __all__ = [
     "fragility",
     "ida",
     "identify_pulse",
+    "jsonio",
     "metrics",
     "omega_crit",
     "omega_hcrit",

@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from . import jsonio
 from ._checks import check_scales
 from .block import Block
 from .ida import DEFAULT_SCALES, MODELS, ida, run_config
@@ -411,9 +412,9 @@ class _Manifest:
         self.data["cases"][name]["assembled"] = digest
 
     def save(self) -> None:
-        text = json.dumps(self.data, indent=1, sort_keys=True)
+        text = jsonio.dumps(self.data, indent=1, sort_keys=True)
         if text != self._text:
-            _atomic_write_text(self.out / MANIFEST, text)
+            jsonio.write_text(self.out / MANIFEST, text)
             self._text = text
 
 
@@ -682,9 +683,3 @@ def _atomic_to_netcdf(ds: xr.Dataset, path: Path) -> str:
     digest = _sha256(tmp)
     os.replace(tmp, path)
     return digest
-
-
-def _atomic_write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)

@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import csv
 import datetime
-import json
 import math
 import os
 import platform
@@ -40,7 +39,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from . import __version__, plot
+from . import __version__, jsonio, plot
 from .block import Block
 from .calibration import fit_beta
 from .constants import G
@@ -76,7 +75,10 @@ def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
         argv: Command-line arguments without the program name; default ``sys.argv[1:]``.
 
     Returns:
-        The exit status: 0 on success, 2 on invalid input (after printing ``error: ...``).
+        The exit status: 0 on success, 1 when a calibration misses its target (the reason on
+        stderr; its files are still written), 2 on invalid input (after printing
+        ``error: ...``), 130 when interrupted, 1 when the reader of the output goes away (a
+        broken pipe).
     """
     parser = _parser()
     args = parser.parse_args(None if argv is None else [os.fspath(a) for a in argv])
@@ -412,9 +414,7 @@ def _demo(args: argparse.Namespace) -> int:
     wall["total"] = time.perf_counter() - t_start
     results["wall_s"] = wall
     results["files"] = sorted([*files, "results.json"])
-    with open(out / "results.json", "w") as f:
-        json.dump(_jsonable(results), f, indent=2)
-        f.write("\n")
+    jsonio.write_json(out / "results.json", results)
 
     bad = [
         f"{section}/{key}: {STATUS_MESSAGES.get(run['status'], run['status'])}"
@@ -525,7 +525,8 @@ def _write_outputs(out, parapet, facade, gm, free_a, runs_a, free_b, runs_b, pul
     )
     files.append(_save(ax, out / "facade_free_rocking.png"))
 
-    plt = plot._pyplot()
+    import matplotlib.pyplot as plt  # loaded by the plots above, which chose the backend
+
     fig, (ax_g, ax_t) = plt.subplots(
         2, 1, figsize=(7.0, 5.5), sharex=True, height_ratios=[1, 2], layout="constrained"
     )
@@ -634,23 +635,6 @@ def _versions() -> dict:
     }
 
 
-def _jsonable(x):
-    """Convert arrays and NumPy scalars to lists and floats; NaN and inf become null."""
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray | jax.Array):
-        return _jsonable(np.asarray(x).tolist())
-    if isinstance(x, bool | np.bool_):
-        return bool(x)
-    if isinstance(x, int | np.integer):
-        return int(x)
-    if isinstance(x, float | np.floating):
-        return float(x) if math.isfinite(x) else None
-    return x
-
-
 # ----------------------------------------------------------------------------- ida
 
 
@@ -738,32 +722,9 @@ def _parse_scales(text: str) -> np.ndarray:
     return scales
 
 
-def _load_records(specs: Sequence[str], normalized: bool) -> list[GroundMotion]:
-    from .records import FEMA_P695_SETS, fema_p695, read_at2
-
-    motions: list[GroundMotion] = []
-    for spec in specs:
-        if spec in FEMA_P695_SETS:
-            motions += fema_p695(spec, normalized=normalized)
-            continue
-        path = Path(spec)
-        if path.is_dir():
-            files = sorted(f for f in path.iterdir() if f.suffix.upper() == ".AT2")
-            if not files:
-                raise ValueError(f"--records {spec}: the folder holds no .AT2 files.")
-            motions += [read_at2(f) for f in files]
-        elif path.is_file():
-            motions.append(read_at2(path))
-        else:
-            raise ValueError(
-                f"--records {spec}: no such file or folder, and not a record set "
-                f"({', '.join(FEMA_P695_SETS)})."
-            )
-    return motions
-
-
 def _ida(args: argparse.Namespace) -> int:
     from .ida import collapse_intervals, ida
+    from .records import load as load_records
 
     t_start = time.perf_counter()
     if args.chunk_size < 1:
@@ -787,7 +748,10 @@ def _ida(args: argparse.Namespace) -> int:
     beta = args.beta
     if args.model == "dem" and beta is None:
         beta = float(beta_dejong(block))
-    motions = _load_records(args.records, args.normalized)
+    try:
+        motions = load_records(args.records, normalized=args.normalized)
+    except ValueError as err:
+        raise ValueError(f"--records {err}") from None
     n_runs = len(motions) * scales.size
     param = (
         f"beta = {beta:.4g} s"
@@ -1059,9 +1023,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         "dem_status": int(fit.dem.status),
         "files": [png, "calibration.json"],
     }
-    with open(out / "calibration.json", "w") as f:
-        json.dump(_jsonable(result), f, indent=2)
-        f.write("\n")
+    jsonio.write_json(out / "calibration.json", result)
     print(f"wrote {png} and calibration.json to {out}/", flush=True)
     if not fit.converged:
         print(f"not converged: {fit.reason}", file=sys.stderr)

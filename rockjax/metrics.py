@@ -176,7 +176,10 @@ def peaks(
     return Peaks(t=tk, amplitude=amp, log_energy=log_u, valid=valid, n_impacts=n_imp)
 
 
-def _bounce_weights(ref: Peaks, min_energy_ratio: float):
+def bounce_weights(ref: Peaks, min_energy_ratio: float = 0.02):
+    """``(w, k)``: weight 1 on the bounces ``k >= 1`` of ``ref`` that are valid and keep at least
+    ``min_energy_ratio`` of its release energy, else 0; and the bounce numbers ``k`` (floats).
+    The weights of every loss here."""
     k = jnp.arange(ref.log_energy.shape[0], dtype=float)
     use = ref.valid & (ref.log_energy - ref.log_energy[0] >= jnp.log(min_energy_ratio))
     return jnp.where(use & (k > 0), 1.0, 0.0), k
@@ -191,7 +194,7 @@ def log_e_gap(sim: Peaks, ref: Peaks, min_energy_ratio: float = 0.02):
     ``sim`` loses less energy per impact than ``ref``. Monotone in the damping of ``sim``: the
     statistic the root-find baseline solves.
     """
-    w, k = _bounce_weights(ref, min_energy_ratio)
+    w, k = bounce_weights(ref, min_energy_ratio)
     d = (sim.log_energy - sim.log_energy[0]) - (ref.log_energy - ref.log_energy[0])
     return jnp.sum(w * 2 * k * d) / jnp.maximum(jnp.sum(w * 4 * k * k), 1.0)
 
@@ -204,7 +207,7 @@ def peak_loss(sim: Peaks, ref: Peaks, min_energy_ratio: float = 0.02):
     ``sim`` has a constant restitution ``e_s`` and ``ref`` has ``e``, the loss is exactly
     ``(log e_s - log e)^2``: its square root reads as the relative error in ``e``.
     """
-    w, k = _bounce_weights(ref, min_energy_ratio)
+    w, k = bounce_weights(ref, min_energy_ratio)
     d = (sim.log_energy - sim.log_energy[0]) - (ref.log_energy - ref.log_energy[0])
     return jnp.sum(w * d * d) / jnp.maximum(jnp.sum(w * 4 * k * k), 1.0)
 
@@ -212,14 +215,14 @@ def peak_loss(sim: Peaks, ref: Peaks, min_energy_ratio: float = 0.02):
 def amplitude_loss(sim: Peaks, ref: Peaks, min_energy_ratio: float = 0.02):
     """Mean square gap of the bounce ``log |theta_k|`` [-] (weights of :func:`log_e_gap`; the
     two responses may differ in ``eta``, e.g. when the block's width is fitted)."""
-    w, _ = _bounce_weights(ref, min_energy_ratio)
+    w, _ = bounce_weights(ref, min_energy_ratio)
     d = jnp.log(sim.amplitude) - jnp.log(ref.amplitude)
     return jnp.sum(w * d * d) / jnp.maximum(jnp.sum(w), 1.0)
 
 
 def timing_loss(sim: Peaks, ref: Peaks, scale, min_energy_ratio: float = 0.02):
     """Mean square gap of the bounce peak times over ``scale**2`` [-] (phase, smoothly)."""
-    w, _ = _bounce_weights(ref, min_energy_ratio)
+    w, _ = bounce_weights(ref, min_energy_ratio)
     d = (sim.t - ref.t) / scale
     return jnp.sum(w * d * d) / jnp.maximum(jnp.sum(w), 1.0)
 
@@ -228,7 +231,7 @@ def log_e_fit(pk: Peaks, min_energy_ratio: float = 0.02):
     """Least-squares ``log e`` of one response from its own bounces: slope of
     ``log U_k - log U_0`` against ``2k`` through the origin [-], over the valid bounces that keep
     at least ``min_energy_ratio`` of the release energy; NaN if there is none."""
-    w, k = _bounce_weights(pk, min_energy_ratio)
+    w, k = bounce_weights(pk, min_energy_ratio)
     d = pk.log_energy - pk.log_energy[0]
     den = jnp.sum(w * 4 * k * k)
     return jnp.where(den > 0, jnp.sum(w * 2 * k * d) / jnp.maximum(den, 1.0), jnp.nan)

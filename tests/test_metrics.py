@@ -117,3 +117,19 @@ def test_amplitude_and_timing_losses():
     assert np.isclose(float(metrics.amplitude_loss(sim, ref)), np.log(1.1) ** 2, rtol=1e-6)
     late = metrics.peaks(t, _decaying(t + 0.5 - 0.1, amps, 1.0), ETA, 3)
     assert np.isclose(float(metrics.timing_loss(late, ref, 0.5)), (0.1 / 0.5) ** 2, rtol=1e-3)
+
+
+def test_bounce_weights_keep_valid_bounces_above_the_energy_floor():
+    """Hand-built peaks, energy ratios U_k/U_0 = 0.5, 0.03, 0.01, 0.2 (the last not completed):
+    weight 1 exactly for the completed bounces k >= 1 keeping >= 2 % of the release energy."""
+    ratios = np.array([1.0, 0.5, 0.03, 0.01, 0.2])
+    pk = metrics.Peaks(
+        t=jnp.arange(5.0),
+        amplitude=jnp.ones(5),
+        log_energy=jnp.log(jnp.asarray(ratios)) + 3.0,  # the offset (log U_0) must not matter
+        valid=jnp.array([True, True, True, True, False]),
+        n_impacts=jnp.asarray(4),
+    )
+    w, k = metrics.bounce_weights(pk, 0.02)
+    np.testing.assert_array_equal(np.asarray(w), [0.0, 1.0, 1.0, 0.0, 0.0])
+    np.testing.assert_array_equal(np.asarray(k), np.arange(5.0))

@@ -407,3 +407,28 @@ def test_rotate_refuses_bad_pairs():
     with pytest.raises(ValueError, match="different vertical components"):
         av = rj.GroundMotion(ag=a.ag, dt=a.dt, ag_v=np.zeros(a.n))
         records.rotate(av, b, 70, 160, 0)
+
+
+# ----------------------------------------------------------------------------- records.load
+
+
+def test_load_files_folders_and_errors_name_the_entry(tmp_path):
+    """Files and folders in the order given (a folder's .AT2 files by name, any suffix case);
+    an unknown entry or an empty folder raises naming it."""
+    folder = tmp_path / "set"
+    folder.mkdir()
+    header = [*HEADER, "NPTS=     3, DT= .0100 SEC,"]
+    _write(folder / "b.at2", header, ["  1.0", "  -2.0", "  0.5"])
+    _write(folder / "a.AT2", header, ["  0.5", "  -1.0", "  0.25"])
+    (folder / "notes.txt").write_text("not a record")
+    single = _write(tmp_path / "c.AT2", header, ["  0.1", "  0.2", "  0.3"])
+    motions = records.load([single, str(folder)])
+    assert [m.name for m in motions] == ["c", "a", "b"]
+    np.testing.assert_allclose(motions[1].ag, np.array([0.5, -1.0, 0.25]) * G, rtol=1e-12)
+    assert [m.name for m in records.load(single)] == ["c"]  # one entry alone
+    with pytest.raises(ValueError, match=r"nope\.AT2: no such file or folder, and not a record"):
+        records.load([single, tmp_path / "nope.AT2"])
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(ValueError, match=r"empty: the folder holds no \.AT2 files"):
+        records.load([empty])

@@ -1,0 +1,109 @@
+"""Calibrate the DEM damping ``beta`` to a coefficient of restitution, by gradient descent.
+
+The paper matched DEM and Housner free-rocking histories by trial; here the match is a
+differentiable loss minimised with L-BFGS (``optax.lbfgs``, backtracking line search):
+
+1. **Reference**: Housner's free rocking with the target ``e`` (or, for facades, the measured
+   bounce ratios of ``e_ISR``), released from rest at ``theta0`` (one or several amplitudes).
+2. **Loss** (:func:`rockjax.metrics.peak_loss`): the mean square gap of the bounce
+   log-energies ``log U_k - log U_0`` between the DEM and Housner, bounce by bounce, over the
+   first ``n_bounces`` impacts that keep at least 2 % of the release energy (weights 1, else 0).
+   It is insensitive to phase, and equals ``(log e_DEM - log e)^2`` for a DEM with a constant
+   restitution. The paper's pointwise weighted-mean history error
+   (:func:`rockjax.metrics.history_error`) is reported beside it.
+3. **Smoothness**: the DEM locates contact onsets inside the step (``onset="sub_step"``,
+   :mod:`rockjax.contact`), so the loss is continuous in ``beta``; with onsets on the step grid
+   it jumps ~1e-4 at ~1e-5 ``beta_DeJong`` intervals and the local derivative misses the trend.
+4. **Scaling and bounds**: two DEM runs at ``beta = 0`` and ``beta_max`` (vmapped) give the
+   reachable range (a target outside it raises) and the slope used to scale the variable
+   ``u = S beta`` so that the loss is ``~ (u - u*)^2``; ``beta = beta_cap tanh(|u| / (S beta_cap))``
+   keeps it in ``[0, beta_cap]`` (``beta_cap = 1.25 beta_max``, the step is sized for it).
+5. **Derivatives** in forward mode (``jax.jvp`` through the ``lax.scan``; one tangent per
+   parameter), wrapped as a ``custom_vjp`` for optax.
+
+Baselines (``method=``): ``"grid"`` (dense vmapped grid, parabola through the best three
+points) and ``"root"`` (Illinois false position on the signed log-energy gap, monotone in
+``beta``).
+
+**What a result promises.** Before any optimisation, a target whose Housner reference has no
+bounce keeping :data:`MIN_ENERGY_RATIO` of its release energy (the loss would be identically
+zero), ``n_bounces < 1``, a DEM that keeps no such bounce at an end of the search (the
+reachable range is undefined) and an unreachable target raise ``ValueError`` with the fix.
+After it, every method (``lbfgs``, its false-position finish, ``grid``, ``root``; and
+:func:`fit_e`) reports ``converged=True`` only if the target is met within a stated tolerance
+(:data:`E_TOL` on the DEM's own ``e``, :data:`BOUNCE_BANDS` for facades), measured on the DEM's
+saved history by a NumPy peak finder independent of the loss, with every number finite;
+otherwise ``converged=False`` and ``reason`` says what was missed. The mode's default target
+(:func:`default_target`) is ``"bounces"`` for facades.
+
+**Layout.** :mod:`~rockjax.calibration.problems` (the public problem objects,
+:func:`problem`, :func:`stats`, :func:`dem_run`, :func:`housner_reference`),
+:mod:`~rockjax.calibration.derivatives` (the forward-mode ``custom_vjp``),
+:mod:`~rockjax.calibration.solvers` (L-BFGS, grid, Illinois false position),
+:mod:`~rockjax.calibration.result` (:class:`Calibration`, :class:`HistoryFit`, the tolerances and
+the verdict), :mod:`~rockjax.calibration.fit` (the public fits).
+"""
+
+from .fit import GAP_TOL as GAP_TOL
+from .fit import METHODS as METHODS
+from .fit import e_effective as e_effective
+from .fit import fit_beta as fit_beta
+from .fit import fit_e as fit_e
+from .fit import fit_history as fit_history
+from .problems import FACADE_BETA_MAX_HCRIT as FACADE_BETA_MAX_HCRIT
+from .problems import MODES as MODES
+from .problems import SAVE_DT as SAVE_DT
+from .problems import CalibrationProblem as CalibrationProblem
+from .problems import EProblem as EProblem
+from .problems import HistoryProblem as HistoryProblem
+from .problems import default_target as default_target
+from .problems import dem_run as dem_run
+from .problems import history_loss as history_loss
+from .problems import history_problem as history_problem
+from .problems import housner_reference as housner_reference
+from .problems import last_compared_time as last_compared_time
+from .problems import problem as problem
+from .problems import stats as stats
+from .problems import stats_batch as stats_batch
+from .result import BOUNCE_BANDS as BOUNCE_BANDS
+from .result import BOUNCE_FRACTIONS as BOUNCE_FRACTIONS
+from .result import E_TOL as E_TOL
+from .result import MIN_ENERGY_RATIO as MIN_ENERGY_RATIO
+from .result import Calibration as Calibration
+from .result import HistoryFit as HistoryFit
+from .result import bounces_missed as bounces_missed
+from .result import e_missed as e_missed
+from .result import verdict as verdict
+
+__all__ = [
+    "BOUNCE_BANDS",
+    "BOUNCE_FRACTIONS",
+    "Calibration",
+    "CalibrationProblem",
+    "E_TOL",
+    "EProblem",
+    "FACADE_BETA_MAX_HCRIT",
+    "GAP_TOL",
+    "HistoryFit",
+    "HistoryProblem",
+    "METHODS",
+    "MIN_ENERGY_RATIO",
+    "MODES",
+    "SAVE_DT",
+    "bounces_missed",
+    "default_target",
+    "dem_run",
+    "e_effective",
+    "e_missed",
+    "fit_beta",
+    "fit_e",
+    "fit_history",
+    "history_loss",
+    "history_problem",
+    "housner_reference",
+    "last_compared_time",
+    "problem",
+    "stats",
+    "stats_batch",
+    "verdict",
+]

@@ -1,0 +1,628 @@
+"""The calibration problems: what a loss evaluation needs, built and checked from the user's
+input, and the statistics of the DEM (or Housner) runs at a parameter value.
+
+* :class:`CalibrationProblem` (built by :func:`problem`): ``beta`` of the DEM against a target
+  ``e`` (Housner's free rocking) or the facade bounce targets; :func:`stats` gives the loss, the
+  signed gap, the DEM's own ``log e`` and the peak loss at a ``beta``.
+* :class:`EProblem`: the Housner ``e`` that matches a DEM run (:func:`rockjax.fit_e`);
+  loss :func:`housner_loss`.
+* :class:`HistoryProblem` (built by :func:`history_problem`): ``beta`` and the width ``b`` from a
+  measured history (:func:`rockjax.fit_history`); loss :func:`history_loss`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import metrics
+from .._checks import check_choice
+from ..block import Block
+from ..dem import simulate_dem, stable_dt
+from ..housner import simulate_housner
+from ..relations import beta_dejong, beta_hcrit, e_isr, free_rocking_period
+from ..response import STATUS_OK, Response, e_exp
+from .result import BOUNCE_FRACTIONS, MIN_ENERGY_RATIO, hysteresis
+
+MODES = ("two_sided", "one_sided")
+SAVE_DT = 0.002
+"""Output step of the calibration runs [s] (the peaks are refined between samples)."""
+
+FACADE_BETA_MAX_HCRIT = 8.0
+"""Default ``beta_max`` of a facade (``mode="one_sided"``) in units of ``beta_Hcrit`` (the
+paper's lower bound from ``omega_Hcrit``): this DEM's facade bounces vanish by 2-8
+``beta_Hcrit`` and its best fits lie at 0.5-6 ``beta_Hcrit`` (calibrate/REPORT.md), far below
+``beta_DeJong``."""
+
+
+class CalibrationProblem(eqx.Module):
+    """Everything a ``beta`` loss evaluation needs (:func:`problem` builds it); arrays traced,
+    the rest static (one compile per geometry/duration).
+
+    Attributes:
+        block: The block (concrete floats).
+        theta0: Release rotations [rad], shape ``(n_release,)``.
+        ref: Housner reference peaks, leading axis ``n_release`` (dummies for ``"bounces"``).
+        targets: ``[e]`` (``kind="e"``) or the three bounce targets ``e_exp,1-3`` [-].
+        gap: Facade gap [m]. scale: ``|d(log e)/d(beta)|`` [1/s], for ``u = scale * beta``
+            (1 until :func:`rockjax.fit_beta` measures it). beta_cap: ``1.25 beta_max`` [s].
+        mode, kind (``"e"`` or ``"bounces"``), n_bounces, duration [s], dt [s], dashpot,
+            onset, hysteresis: the static set-up.
+    """
+
+    block: Block
+    theta0: jax.Array  # (n_release,)
+    ref: metrics.Peaks  # Housner reference peaks, leading axis n_release (or dummies)
+    targets: jax.Array  # bounce targets (target="bounces") or e (target="e")
+    gap: jax.Array
+    scale: jax.Array  # S: d(log e)/d(beta) magnitude [1/s], for u = S beta
+    beta_cap: jax.Array
+    mode: str = eqx.field(static=True)
+    kind: str = eqx.field(static=True)  # "e" or "bounces"
+    n_bounces: int = eqx.field(static=True)
+    duration: float = eqx.field(static=True)
+    dt: float = eqx.field(static=True)
+    dashpot: str = eqx.field(static=True)
+    onset: str = eqx.field(static=True)
+    hysteresis: float = eqx.field(static=True)
+
+
+def dem_run(problem: CalibrationProblem, beta, theta0=None) -> Response:
+    """The problem's DEM free-rocking run at ``beta`` [s] from ``theta0`` [rad] (default the
+    first release), saved every :data:`SAVE_DT`; a failed run is reported in ``status``."""
+    return simulate_dem(
+        problem.block,
+        beta=beta,
+        mode=problem.mode,
+        gap=problem.gap,
+        theta0=problem.theta0[0] if theta0 is None else theta0,
+        duration=problem.duration,
+        dt=problem.dt,
+        dashpot=problem.dashpot,
+        onset=problem.onset,
+        save_dt=SAVE_DT,
+        throw=False,
+    )
+
+
+def dem_peaks(problem: CalibrationProblem, beta):
+    """``(peaks, status)`` of the DEM runs at ``beta`` [s], one per release (vmapped)."""
+
+    def one(theta0):
+        r = dem_run(problem, beta, theta0)
+        pk = metrics.peaks(
+            r.t, r.theta, problem.block.eta, problem.n_bounces, problem.mode, problem.hysteresis
+        )
+        return pk, r.status
+
+    return jax.vmap(one)(problem.theta0)
+
+
+def bounce_log_e(problem: CalibrationProblem, pk: metrics.Peaks):
+    """``log e_exp`` (Eq. 6) of bounces 1-3, per release, from the loss's peaks [-]."""
+    n = jnp.arange(1, 4)[None, :]
+    e_n = e_exp(pk.amplitude[:, 1:4], pk.amplitude[:, :1], problem.block.eta, n)
+    return jnp.log(e_n)
+
+
+def stats(problem: CalibrationProblem, beta):
+    """``(loss, signed gap, the DEM's own log e, peak loss)`` at ``beta`` [s]; NaN if a run failed.
+
+    ``target="e"``: the gap is :func:`rockjax.metrics.log_e_gap` (the least-squares
+    ``log e_DEM - log e`` over the compared bounces, averaged over the releases) and the loss is
+    its square, zero exactly where the DEM's restitution equals the target. The full
+    bounce-by-bounce mismatch :func:`rockjax.metrics.peak_loss` is returned beside it: what is
+    left of it at the optimum is the DEM's amplitude dependence of ``e``, which no single
+    ``beta`` removes. ``target="bounces"``: the loss is the mean square of the three
+    ``log e_exp,n - log target_n`` and the gap their mean.
+    """
+    pk, status = dem_peaks(problem, beta)
+    if problem.kind == "e":
+        gap = jnp.mean(jax.vmap(metrics.log_e_gap)(pk, problem.ref))
+        shape = jnp.mean(jax.vmap(metrics.peak_loss)(pk, problem.ref))
+        loss = gap * gap
+    else:
+        d = bounce_log_e(problem, pk) - jnp.log(problem.targets)[None, :]
+        loss = jnp.mean(d * d)
+        gap = jnp.mean(d)
+        shape = loss
+    own = jnp.mean(jax.vmap(metrics.log_e_fit)(pk))  # the DEM's own log e, target-free
+    bad = jnp.any(status != STATUS_OK)
+    return tuple(jnp.where(bad, jnp.nan, x) for x in (loss, gap, own, shape))
+
+
+@eqx.filter_jit
+def stats_batch(problem: CalibrationProblem, betas):
+    """:func:`stats` at each of ``betas`` [s] (one compiled, vmapped batch)."""
+    return jax.vmap(lambda b: stats(problem, b))(betas)
+
+
+def last_compared_time(resp: Response, problem: CalibrationProblem) -> float:
+    """Time [s] of the last bounce of ``resp`` that keeps :data:`MIN_ENERGY_RATIO` of its
+    release energy (the end of the window of the history error)."""
+    pk = metrics.peaks(
+        resp.t, resp.theta, resp.eta, problem.n_bounces, problem.mode, problem.hysteresis
+    )
+    keep = np.asarray(pk.valid) & (
+        np.asarray(pk.log_energy) - float(pk.log_energy[0]) >= math.log(MIN_ENERGY_RATIO)
+    )
+    return float(np.asarray(pk.t)[keep].max())
+
+
+def housner_reference(problem: CalibrationProblem, e: float | None = None) -> list[Response]:
+    """Housner's free rocking, one response per release, with the problem's target ``e`` (or
+    ``e`` [-]; required for ``target="bounces"``, which has no Housner target), saved every
+    :data:`SAVE_DT` over the problem's duration."""
+    if e is None:
+        if problem.kind != "e":
+            raise ValueError("target='bounces' has no Housner target e; pass e.")
+        e = float(problem.targets[0])
+    th = np.asarray(problem.theta0)
+    return housner_peaks(
+        problem.block, float(e), th, problem.mode, problem.n_bounces, problem.duration
+    )[1]
+
+
+# --------------------------------------------------------------------------- set-up
+
+
+def release(block: Block, theta0) -> np.ndarray:
+    """The release rotations [rad] (default ``0.5 eta``) as ``|theta0|``, checked:
+    ``0.05 eta <= |theta0| < eta``; ValueError with the fix otherwise."""
+    eta = float(block.eta)
+    th = np.atleast_1d(np.asarray(0.5 * eta if theta0 is None else theta0, float))
+    if th.ndim != 1 or th.size == 0 or not np.all(np.isfinite(th)):
+        raise ValueError(
+            f"theta0 must be a release rotation [rad] or a 1-D list of them; got {theta0}."
+        )
+    if np.any(np.abs(th) >= eta) or np.any(np.abs(th) < 0.05 * eta):
+        raise ValueError(
+            f"theta0={th} rad: each release must satisfy 0.05 eta <= |theta0| < eta "
+            f"(eta = {eta:.4g} rad); e.g. theta0=0.5*block.eta."
+        )
+    return np.abs(th)
+
+
+def concrete_block(block: Block) -> Block:
+    """``block`` with Python floats (ValueError for traced values: a fit is not traced)."""
+    try:
+        return jax.tree.map(lambda x: float(np.asarray(x)), block)
+    except Exception:
+        raise ValueError(
+            "fit_beta/fit_e need a concrete Block (Python floats), not traced values."
+        ) from None
+
+
+def run_duration(block: Block, theta0: np.ndarray, n_bounces: int) -> float:
+    """Duration [s] long enough for impact ``n_bounces + 1`` at the largest release (rounded up
+    to 0.5 s so similar blocks share a compilation)."""
+    t_full = float(free_rocking_period(block.p, block.eta, float(np.max(theta0))))
+    return math.ceil(2.0 * (n_bounces + 2) * 0.5 * t_full) / 2.0
+
+
+def default_beta_max(block: Block, mode: str) -> float:
+    """``2 beta_DeJong`` for parapets; ``FACADE_BETA_MAX_HCRIT beta_Hcrit`` for facades [s]."""
+    if mode == "one_sided":
+        return FACADE_BETA_MAX_HCRIT * float(beta_hcrit(block))
+    return 2.0 * float(beta_dejong(block))
+
+
+def default_target(mode: str) -> str:
+    """The calibration target of a mode: ``"e"`` two-sided, ``"bounces"`` one-sided.
+
+    A facade's one-sided Housner rocking with ``e = |e_ISR|`` keeps about 20 % of its energy per
+    impact, so at most two bounces inform an ``e`` fit, and the measured facade bounces are not
+    Housner's (their ``e_exp`` rises from ~68 % to ~100 % of ``|e_ISR|``,
+    :data:`rockjax.calibration.BOUNCE_FRACTIONS`): the bounce targets are what a facade is
+    calibrated to.
+    """
+    check_choice("mode", mode, MODES)
+    return "bounces" if mode == "one_sided" else "e"
+
+
+def check_n_bounces(n_bounces, default_hint: str = "") -> int:
+    """``n_bounces`` (impacts compared) as an int >= 1, else ValueError."""
+    if isinstance(n_bounces, bool) or not (
+        isinstance(n_bounces, (int, np.integer)) and n_bounces >= 1
+    ):
+        raise ValueError(
+            f"n_bounces (impacts compared) must be an int >= 1; got {n_bounces!r}.{default_hint}"
+        )
+    return int(n_bounces)
+
+
+def housner_peaks(block, e, theta0, mode, n_bounces, duration):
+    """``(peaks stacked over releases, responses)`` of Housner's free rocking with ``e`` from
+    each of ``theta0`` [rad], saved every :data:`SAVE_DT` over ``duration`` [s]."""
+    pks, resps = [], []
+    for th in theta0:
+        r = simulate_housner(block, e=e, mode=mode, theta0=th, duration=duration, dt=SAVE_DT)
+        pks.append(metrics.peaks(r.t, r.theta, block.eta, n_bounces, mode, hysteresis(mode)))
+        resps.append(r)
+    return jax.tree.map(lambda *x: jnp.stack(x), *pks), resps
+
+
+def build_problem(
+    block,
+    e=None,
+    *,
+    target=None,
+    mode="two_sided",
+    theta0=None,
+    n_bounces=None,
+    beta_max=None,
+    dashpot="closed",
+    gap=0.0,
+    onset="sub_step",
+) -> tuple[CalibrationProblem, list[Response]]:
+    """:func:`problem` and the Housner reference responses it was built from (one per release;
+    empty for ``target="bounces"``)."""
+    check_choice("mode", mode, MODES)
+    one_sided = mode == "one_sided"
+    defaulted = target is None
+    if defaulted:
+        target = default_target(mode)
+    check_choice("target", target, ("e", "bounces"))
+    block = concrete_block(block)
+    th = release(block, theta0)
+    if n_bounces is None:
+        n_bounces = 3 if (one_sided or target == "bounces") else 8
+    else:
+        n_bounces = check_n_bounces(
+            n_bounces, " Leave it None for the default (8 two-sided, 3 one-sided)."
+        )
+    if target == "bounces":
+        if not one_sided:
+            raise ValueError(
+                "target='bounces' is the facade calibration (measured e_exp of bounces 1-3 as "
+                "fractions of e_ISR); use mode='one_sided', or target='e' for a parapet."
+            )
+        if e is not None:
+            if defaulted:
+                raise ValueError(
+                    "mode='one_sided' calibrates to the facade bounce targets by default "
+                    "(target='bounces', which takes no e); drop e, or pass target='e' to match "
+                    "Housner's one-sided rocking with this e instead."
+                )
+            raise ValueError("target='bounces' takes no e (its targets are fractions of e_ISR).")
+        n_bounces = max(int(n_bounces), 3)
+    elif e is None:
+        raise ValueError(
+            "fit_beta needs the target restitution e (e.g. e=rj.e_housner(block), Eq. 2), or "
+            "target='bounces' for a facade."
+        )
+    if beta_max is None:
+        beta_max = default_beta_max(block, mode)
+    if not (np.isfinite(beta_max) and beta_max > 0):
+        raise ValueError(f"beta_max must be a positive damping coefficient in s; got {beta_max}.")
+    beta_cap = 1.25 * float(beta_max)
+    duration = run_duration(block, th, n_bounces)
+    dt = stable_dt(block, beta_cap, mode=mode)
+    resps = []
+    if target == "e":
+        e_val = float(np.asarray(e))
+        if not (0.0 < abs(e_val) <= 1.0):
+            raise ValueError(f"e (restitution, dimensionless) must be in (0, 1]; got e={e_val}.")
+        # Housner's bounce k keeps e^(2k) of the release energy (impact map x flight energy
+        # conservation): refuse an uninformative e before running anything, then check the runs
+        if e_val**2 < MIN_ENERGY_RATIO:
+            _check_informative(None, e_val, th, mode, n_bounces)
+        ref, resps = housner_peaks(block, e_val, th, mode, n_bounces, duration)
+        _check_informative(ref, e_val, th, mode, n_bounces)
+        targets = jnp.asarray([abs(e_val)])
+    else:
+        ref = metrics.Peaks(
+            t=jnp.zeros((th.size, n_bounces + 1)),
+            amplitude=jnp.zeros((th.size, n_bounces + 1)),
+            log_energy=jnp.zeros((th.size, n_bounces + 1)),
+            valid=jnp.zeros((th.size, n_bounces + 1), bool),
+            n_impacts=jnp.zeros(th.size, jnp.int32),
+        )
+        targets = jnp.asarray(BOUNCE_FRACTIONS) * abs(float(e_isr(block)))
+    out = CalibrationProblem(
+        block=block,
+        theta0=jnp.asarray(th),
+        ref=ref,
+        targets=targets,
+        dt=float(dt),
+        gap=jnp.asarray(float(gap)),
+        scale=jnp.asarray(1.0),
+        beta_cap=jnp.asarray(beta_cap),
+        mode=mode,
+        kind=target,
+        n_bounces=int(n_bounces),
+        duration=duration,
+        dashpot=dashpot,
+        onset=onset,
+        hysteresis=hysteresis(mode),
+    )
+    return out, resps
+
+
+def problem(
+    block: Block,
+    e=None,
+    *,
+    target: str | None = None,
+    mode: str = "two_sided",
+    theta0=None,
+    n_bounces: int | None = None,
+    beta_max: float | None = None,
+    dashpot: str = "closed",
+    gap: float = 0.0,
+    onset: str = "sub_step",
+) -> CalibrationProblem:
+    """The calibration problem of :func:`rockjax.fit_beta`, checked and set up.
+
+    Evaluate it with :func:`stats` / :func:`stats_batch` (loss, signed gap, the DEM's own
+    ``log e``, peak loss at a ``beta``), :func:`dem_run` (the DEM run at a ``beta``) and
+    :func:`housner_reference` (the Housner runs its reference peaks ``.ref`` come from).
+
+    Args:
+        block, e, target, mode, theta0, n_bounces, beta_max, dashpot, gap, onset: as in
+            :func:`rockjax.fit_beta` (same defaults, same checks).
+
+    Returns:
+        A :class:`CalibrationProblem` (its ``scale`` is 1: ``fit_beta`` sets it from its scan).
+
+    Raises:
+        ValueError: as :func:`rockjax.fit_beta` before its scan (bad input, a target with no
+            informative bounce).
+    """
+    return build_problem(
+        block,
+        e,
+        target=target,
+        mode=mode,
+        theta0=theta0,
+        n_bounces=n_bounces,
+        beta_max=beta_max,
+        dashpot=dashpot,
+        gap=gap,
+        onset=onset,
+    )[0]
+
+
+def _check_informative(ref: metrics.Peaks | None, e, th, mode, n_bounces):
+    """Refuse a target ``e`` whose Housner reference has no bounce that keeps
+    :data:`MIN_ENERGY_RATIO` of its release energy: the loss would be identically zero."""
+    if ref is not None:
+        lu = np.asarray(ref.log_energy)
+        use = np.asarray(ref.valid) & (lu - lu[:, :1] >= math.log(MIN_ENERGY_RATIO))
+        if np.all(use[:, 1:].sum(axis=1) > 0):
+            return
+    fix = (
+        "use target='bounces' (the facade default)"
+        if mode == "one_sided"
+        else "raise e, or calibrate to a measured e"
+    )
+    raise ValueError(
+        f"target e={e:.4g} gives no informative bounce: Housner's free rocking with it from "
+        f"theta0={np.round(th, 5).tolist()} rad keeps less than {100 * MIN_ENERGY_RATIO:g} % "
+        f"of the release energy at each of its first {n_bounces} impacts (bounce k keeps e^(2k), "
+        f"so e >= {math.sqrt(MIN_ENERGY_RATIO):.3f} is needed), and the calibration loss would "
+        f"be identically zero. {fix[0].upper() + fix[1:]}."
+    )
+
+
+def _range_message(problem, g0, g1, beta_max, e_range):
+    if problem.kind == "e":
+        e = float(problem.targets[0])
+        lo, hi = e_range
+        fix = (
+            "; the 'clipped' dashpot saturates: use dashpot='closed' for lower e"
+            if problem.dashpot == "clipped"
+            else ", or widen beta_max for lower e"
+        )
+        if problem.mode == "one_sided":
+            fix += "; or use target='bounces' (the facade default)"
+        return (
+            f"target e={e:.4g} is not reachable by this DEM block: over beta in "
+            f"[0, {beta_max:.4g}] s its restitution spans e = {lo:.4f} (beta_max) to {hi:.4f} "
+            f"(beta = 0; dashpot={problem.dashpot!r}). Pick e in that range{fix}."
+        )
+    return (
+        f"the facade bounce targets {np.round(np.asarray(problem.targets), 4).tolist()} are not "
+        f"bracketed over beta in [0, {beta_max:.4g}] s (mean log-gap {g0:+.3g} at beta = 0, "
+        f"{g1:+.3g} at beta_max); widen beta_max."
+    )
+
+
+def check_range(problem, scan, own_s, beta_max):
+    """The reachable ``(e(beta_max), e(0))`` of a ``target="e"`` fit (None for bounces), or a
+    ValueError where the DEM keeps no informative bounce at an end (the range is undefined).
+
+    Args:
+        problem: The problem. scan: ``beta`` values of the scan [s], from 0 to ``beta_max``.
+        own_s: The DEM's own ``log e`` at each (:func:`stats`). beta_max: [s].
+    """
+    e_lo, e_hi = math.exp(float(own_s[-1])), math.exp(float(own_s[0]))
+    one_sided = problem.mode == "one_sided"
+    lost = (
+        f"keeps no bounce with {100 * MIN_ENERGY_RATIO:g} % of its release energy within "
+        f"{problem.n_bounces} impacts"
+    )
+    if not np.isfinite(e_hi):
+        raise ValueError(
+            f"this DEM block {lost} even at beta = 0 (or a run failed): nothing to calibrate. "
+            "Check the block (E, rho), the release theta0 and n_bounces"
+            + (", or the gap." if one_sided else ".")
+        )
+    if problem.kind != "e":
+        return None
+    if not np.isfinite(e_lo):
+        ok = [float(b) for b, o in zip(scan, own_s) if np.isfinite(o)]
+        where = (
+            f" (the scan saw bounces up to beta = {max(ok):.4g} s; the step is sized for "
+            "beta_max, so aim a little lower)"
+            if len(ok) > 1
+            else ""
+        )
+        raise ValueError(
+            f"the reachable range of e is undefined at beta_max={beta_max:.4g} s: the DEM block "
+            f"{lost} there (its restitution is below {math.sqrt(MIN_ENERGY_RATIO):.3f}). Lower "
+            f"beta_max{where}"
+            + (", or use target='bounces' (the facade default)." if one_sided else ".")
+        )
+    return (e_lo, e_hi)
+
+
+def check_reachable(problem, g0, g1, beta_max, e_range):
+    """ValueError (with the reachable range and the fix) unless the signed gap changes sign
+    between ``beta = 0`` (``g0 >= 0``) and ``beta_max`` (``g1 <= 0``)."""
+    if not (np.isfinite(g0) and np.isfinite(g1)):
+        raise ValueError(
+            "a DEM calibration run failed (non-finite or unstable); check the block and beta_max."
+        )
+    if not (g0 >= 0.0 >= g1):
+        raise ValueError(_range_message(problem, g0, g1, beta_max, e_range))
+
+
+# --------------------------------------------------------------------------- fit_e
+
+
+class EProblem(eqx.Module):
+    """:func:`rockjax.fit_e`: the DEM peaks (fixed) and what the Housner runs need."""
+
+    block: Block
+    theta0: jax.Array
+    dem: metrics.Peaks
+    mode: str = eqx.field(static=True)
+    n_bounces: int = eqx.field(static=True)
+    duration: float = eqx.field(static=True)
+    hysteresis: float = eqx.field(static=True)
+
+
+def housner_loss(v, problem: EProblem):
+    """Peak loss of Housner's free rocking with ``e = sigmoid(v)`` against the DEM's peaks [-]
+    (forward-mode derivatives through the solve, ``diffrax.ForwardMode``)."""
+    import diffrax
+
+    e = jax.nn.sigmoid(v)
+
+    def one(theta0, ref):
+        r = simulate_housner(
+            problem.block,
+            e=e,
+            mode=problem.mode,
+            theta0=theta0,
+            duration=problem.duration,
+            dt=SAVE_DT,
+            adjoint=diffrax.ForwardMode(),
+        )
+        pk = metrics.peaks(
+            r.t, r.theta, problem.block.eta, problem.n_bounces, problem.mode, problem.hysteresis
+        )
+        return metrics.peak_loss(pk, ref)
+
+    return jnp.mean(jax.vmap(one)(problem.theta0, problem.dem))
+
+
+# --------------------------------------------------------------------------- fit_history
+
+
+class HistoryProblem(eqx.Module):
+    """:func:`rockjax.fit_history`: the measured peaks and the DEM set-up (``b`` and ``beta``
+    are the unknowns); :func:`history_problem` builds it."""
+
+    block: Block
+    theta0: jax.Array
+    measured: metrics.Peaks
+    beta_ref: jax.Array
+    t_scale: jax.Array
+    mode: str = eqx.field(static=True)
+    n_bounces: int = eqx.field(static=True)
+    duration: float = eqx.field(static=True)
+    save_dt: float = eqx.field(static=True)
+    dt: float = eqx.field(static=True)
+    hysteresis: float = eqx.field(static=True)
+
+
+def history_params(problem: HistoryProblem, u):
+    """``(beta [s], b [m])`` of the scaled unknowns ``u``: ``beta0 exp(u0)``, ``b exp(u1)``."""
+    return problem.beta_ref * jnp.exp(u[0]), problem.block.b * jnp.exp(u[1])
+
+
+def history_loss(u, problem: HistoryProblem):
+    """Amplitude plus timing loss of the DEM at :func:`history_params` against the measured
+    peaks [-]; NaN if the run failed."""
+    beta, b = history_params(problem, u)
+    blk = eqx.tree_at(lambda k: k.b, problem.block, b)
+    r = simulate_dem(
+        blk,
+        beta=beta,
+        mode=problem.mode,
+        theta0=problem.theta0,
+        duration=problem.duration,
+        dt=problem.dt,
+        save_dt=problem.save_dt,
+        throw=False,
+    )
+    pk = metrics.peaks(r.t, r.theta, blk.eta, problem.n_bounces, problem.mode, problem.hysteresis)
+    ref = problem.measured
+    loss = metrics.amplitude_loss(pk, ref, MIN_ENERGY_RATIO) + metrics.timing_loss(
+        pk, ref, problem.t_scale, MIN_ENERGY_RATIO
+    )
+    return jnp.where(r.status == STATUS_OK, loss, jnp.nan)
+
+
+def history_problem(
+    block: Block,
+    measured: Response,
+    beta0: float | None = None,
+    mode: str = "two_sided",
+    n_bounces: int = 8,
+) -> HistoryProblem:
+    """Checks and set-up of :func:`rockjax.fit_history` (also used to map its loss on a grid).
+
+    Args: as :func:`rockjax.fit_history`.
+
+    Raises:
+        ValueError: a non-uniform or non-finite ``measured`` history, one with fewer than two
+            impacts or no informative bounce, ``n_bounces < 1``, ``beta0 <= 0``.
+    """
+    check_choice("mode", mode, MODES)
+    check_n_bounces(n_bounces)
+    block = concrete_block(block)
+    t = np.asarray(measured.t, float)
+    th = np.asarray(measured.theta, float)
+    if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(th)):
+        raise ValueError("measured must be a Response with finite, uniformly sampled theta(t).")
+    save_dt = float(t[1] - t[0])
+    if not np.allclose(np.diff(t), save_dt, rtol=1e-6, atol=1e-12):
+        raise ValueError("measured.t must be uniform; resample the record first.")
+    theta0 = float(th[0])
+    eta = float(block.eta)
+    release(block, theta0)
+    hyst = hysteresis(mode)
+    ref = metrics.peaks(t, th, eta, n_bounces, mode, hyst)
+    if int(ref.n_impacts) < 2:
+        raise ValueError("the measured history has fewer than two impacts; record longer.")
+    w, _ = metrics.bounce_weights(ref, MIN_ENERGY_RATIO)
+    if not float(jnp.sum(w)) > 0:
+        raise ValueError(
+            f"the measured history keeps no bounce with {100 * MIN_ENERGY_RATIO:g} % of its "
+            "release energy: the loss would be identically zero; release from a larger theta0."
+        )
+    beta0 = 0.3 * float(beta_dejong(block)) if beta0 is None else float(beta0)
+    if not beta0 > 0:
+        raise ValueError(f"beta0 must be > 0 s (the fit works on log beta); got {beta0}.")
+    wide = eqx.tree_at(lambda k: k.b, block, 1.5 * block.b)
+    dt = 0.8 * min(stable_dt(block, 20 * beta0, mode=mode), stable_dt(wide, 20 * beta0, mode=mode))
+    return HistoryProblem(
+        block=block,
+        theta0=jnp.asarray(theta0),
+        measured=ref,
+        beta_ref=jnp.asarray(beta0),
+        t_scale=jnp.asarray(float(ref.t[1]) if bool(ref.valid[1]) else t[-1]),
+        mode=mode,
+        n_bounces=n_bounces,
+        duration=float(t[-1]),
+        save_dt=save_dt,
+        dt=float(dt),
+        hysteresis=hyst,
+    )
