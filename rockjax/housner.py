@@ -85,6 +85,7 @@ from ._checks import check_choice, concrete
 from .block import Block
 from .constants import G
 from .motion import GroundMotion
+from .relations import e_housner, e_isr
 from .response import (
     STATUS_NONFINITE,
     STATUS_OK,
@@ -761,7 +762,7 @@ def simulate_housner(
     block = jax.tree.map(lambda x: jnp.asarray(x, dtype=float), block)
     default_e = e is None
     if default_e:
-        e = _default_e(block.eta, one_sided)
+        e = e_isr(block.eta) if one_sided else e_housner(block.eta)
     _check_e(e, one_sided, default=default_e)
     e = jnp.asarray(e, dtype=float)
     return _simulate(
@@ -913,14 +914,6 @@ def _fit(a, n):
     """``a`` truncated or zero-padded to ``n`` samples."""
     a = jnp.asarray(a, dtype=float)
     return a[:n] if a.shape[0] >= n else jnp.pad(a, (0, n - a.shape[0]))
-
-
-def _default_e(eta, one_sided: bool):
-    """Eq. (2) ``e_H = 1 - 1.5 sin^2 eta``, or for a facade Eq. (5)
-    ``e_1sr = (1 - 1.5 sin^2 eta)^2 (1 - 1.5 cos^2 eta)`` (negative for slender walls)."""
-    s2 = jnp.sin(eta) ** 2
-    e_h = 1.0 - 1.5 * s2
-    return e_h**2 * (1.5 * s2 - 0.5) if one_sided else e_h
 
 
 def _check_e(e, one_sided: bool, default: bool) -> None:

@@ -58,8 +58,9 @@ from ._types import ScalarLike
 from .block import Block
 from .constants import G
 from .dem import simulate_dem, stable_dt
-from .housner import P_DT_TARGET, _default_e, simulate_housner
+from .housner import P_DT_TARGET, simulate_housner
 from .motion import GroundMotion
+from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
 
@@ -194,7 +195,10 @@ def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.
             )
         one_sided = mode == "one_sided"
         e = None if e is None else float(e)
-        e_used = float(np.abs(_default_e(block.eta, one_sided))) if e is None else e
+        if e is None:  # the simulator's default: Eq. (2) two-sided, |Eq. (5)| one-sided
+            e_used = float(np.abs(e_isr(block.eta) if one_sided else e_housner(block.eta)))
+        else:
+            e_used = e
         e_used = abs(e_used) if one_sided else e_used  # simulate_housner uses |e| one-sided
         # the step bound simulate_housner picks for a concrete block
         dt_bound = P_DT_TARGET / float(block.p)

@@ -27,7 +27,7 @@ from .response import Response
 _FIGSIZE = (7.0, 4.0)
 
 
-def _pyplot():
+def pyplot():
     """Import ``matplotlib.pyplot``, choosing Agg first when there is no display to draw on."""
     import matplotlib
 
@@ -46,7 +46,7 @@ def _pyplot():
 def _new_axes(ax, figsize=_FIGSIZE):
     if ax is not None:
         return ax
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=figsize, layout="constrained")
     return ax
 
@@ -58,7 +58,7 @@ def close(fig_or_ax) -> None:
         fig_or_ax: A matplotlib ``Figure`` or ``Axes``.
     """
     fig = getattr(fig_or_ax, "figure", fig_or_ax)
-    _pyplot().close(fig)
+    pyplot().close(fig)
 
 
 def time_history(
@@ -293,7 +293,7 @@ def calibration(fit, axes=None, *, title: str | None = None):
         ValueError: If ``axes`` is not a pair of Axes.
     """
     if axes is None:
-        plt = _pyplot()
+        plt = pyplot()
         _, axes = plt.subplots(1, 2, figsize=(11.0, 4.0), width_ratios=[3, 2], layout="constrained")
     axes = tuple(np.ravel(np.asarray(axes, dtype=object)))
     if len(axes) != 2:

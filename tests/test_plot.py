@@ -39,7 +39,7 @@ def _response(decay: float, overturned: bool = False, one_sided: bool = False) -
 @pytest.fixture(autouse=True)
 def _close_figures():
     yield
-    plot._pyplot().close("all")
+    plot.pyplot().close("all")
 
 
 def _legend_texts(ax):
@@ -62,7 +62,7 @@ def test_time_history_labels_and_saves(tmp_path):
 
 
 def test_time_history_in_radians_on_given_axes():
-    plt = plot._pyplot()
+    plt = plot.pyplot()
     fig, ax = plt.subplots()
     out = plot.time_history({"r": _response(0.1)}, ax=ax, normalise=False)
     assert out is ax
