@@ -32,6 +32,7 @@ import math
 import os
 import platform
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -700,6 +701,13 @@ def _add_ida_parser(sub) -> None:
     p.add_argument(
         "--chunk-size", type=int, default=256, metavar="N", help="runs per compiled batch"
     )
+    p.add_argument(
+        "--im",
+        default="pga",
+        metavar="IM",
+        help="intensity measure of the IDA and its fragility: pga, pgv or sa(T), e.g. sa(0.5) "
+        "(default: pga)",
+    )
     p.add_argument("--out", required=True, metavar="FILE.nc", help="NetCDF file to write")
     p.set_defaults(run=_ida)
 
@@ -722,6 +730,32 @@ def _parse_scales(text: str) -> np.ndarray:
     return scales
 
 
+def _check_writable(flag: str, folder: Path) -> None:
+    """Create ``folder`` if needed and write a probe file in it, so that an output path that
+    cannot be written fails before the computation, not after it."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".rockjax-probe-"):
+            pass
+    except OSError as err:
+        raise ValueError(
+            f"{flag}: cannot write into {folder} ({err.strerror or err}); give a path in a "
+            "folder you can write to."
+        ) from None
+
+
+def _fragility_summary(ds) -> str:
+    """One line: the lognormal collapse fragility of the IDA (median in g where the IM is an
+    acceleration), or why it cannot be fitted."""
+    from .fragility import fragility
+
+    try:
+        frag = fragility(ds)
+    except ValueError as err:
+        return f"fragility: not fitted ({err})"
+    return f"fragility: {frag!r}"
+
+
 def _ida(args: argparse.Namespace) -> int:
     from .ida import collapse_intervals, ida
     from .records import load as load_records
@@ -732,6 +766,7 @@ def _ida(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.is_dir():
         raise ValueError(f"--out {out} is a folder; give a file path such as {out / 'ida.nc'}.")
+    _check_writable("--out", out.parent)  # before any run: a bad path loses no work
     scales = _parse_scales(args.scales)
     block = Block(b=args.b, h=args.h)  # raises ValueError on bad geometry
     # checked here too (rj.ida checks them all) so the error comes before the records load
@@ -753,11 +788,18 @@ def _ida(args: argparse.Namespace) -> int:
     except ValueError as err:
         raise ValueError(f"--records {err}") from None
     n_runs = len(motions) * scales.size
-    param = (
-        f"beta = {beta:.4g} s"
-        if args.model == "dem"
-        else "e = " + ("default" if args.e is None else f"{args.e:g}")
-    )
+    if args.model == "dem":
+        param = f"beta = {beta:.4g} s" + (
+            " = beta_DeJong, an uncalibrated default: calibrate it with rockjax calibrate"
+            if args.beta is None
+            else ""
+        )
+    elif args.e is None:
+        e_default = e_isr(block) if args.mode == "one_sided" else e_housner(block)
+        eq = "|Eq. 5|" if args.mode == "one_sided" else "Eq. 2"
+        param = f"e = {abs(float(e_default)):.4g} ({eq}, the default)"
+    else:
+        param = f"e = {args.e:g}"
     print(
         f"rockjax {__version__} ida: block {args.b:g} x {args.h:g} m, {args.model} "
         f"{args.mode} ({param}); {len(motions)} records x {scales.size} scales "
@@ -776,6 +818,7 @@ def _ida(args: argparse.Namespace) -> int:
         tail=args.tail,
         chunk_size=args.chunk_size,
         progress=True,
+        im=args.im,
     )
     ds.attrs["command"] = "rockjax ida " + " ".join(_ida_argv(args))
     if out.parent != Path(""):
@@ -801,6 +844,7 @@ def _ida(args: argparse.Namespace) -> int:
         )
     else:
         print(f"no record collapsed the block up to scale {scales[-1]:g}", flush=True)
+    print(_fragility_summary(ds), flush=True)
     print(f"wrote {out} in {time.perf_counter() - t_start:.1f} s", flush=True)
     if failed:
         print(f"warning: {failed} runs failed; see the 'status' variable", file=sys.stderr)
@@ -815,7 +859,7 @@ def _ida_argv(args: argparse.Namespace) -> list[str]:
             parts += [flag, f"{value:g}"]
     if args.normalized:
         parts.append("--normalized")
-    parts += ["--gap", f"{args.gap:g}", "--tail", f"{args.tail:g}"]
+    parts += ["--gap", f"{args.gap:g}", "--tail", f"{args.tail:g}", "--im", args.im]
     return parts + ["--chunk-size", str(args.chunk_size), "--out", str(args.out)]
 
 
@@ -907,6 +951,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} exists and is not a folder; give a folder path.")
+    _check_writable("--out", out)  # before the fit: a bad path loses no work
     mode = args.mode or ("one_sided" if args.target == "bounces" else "two_sided")
     target = args.target or default_target(mode)
     if target == "bounces":

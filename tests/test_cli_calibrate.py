@@ -131,3 +131,11 @@ def test_one_sided_default_calibrates_to_the_bounce_targets(tmp_path):
     assert (res["reason"] == "") is met
     if not met:
         assert stderr.startswith("not converged: ") and res["reason"] in stderr
+
+
+def test_unwritable_out_fails_before_the_fit(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    rc, stdout, stderr = run_cli(["calibrate", "--b", 0.25, "--h", 3, "--out", blocker / "sub"])
+    assert rc == 2 and "--out: cannot write into" in stderr, stderr
+    assert "beta =" not in stdout

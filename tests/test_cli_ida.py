@@ -58,6 +58,8 @@ def test_dem_writes_netcdf_and_summary(dem_run):
     assert np.all(np.asarray(ds["status"]) == 0)
     # summary and progress
     assert "2 records x 3 scales" in stdout and "= 6 runs" in stdout
+    assert "= beta_DeJong, an uncalibrated default" in stdout  # the header says so
+    assert "fragility: " in stdout  # fitted, or why not (here: every run at 3 collapses)
     assert f"collapsed: {int(collapse.sum())}" in stdout
     lowest = np.asarray(rj.collapse_intervals(ds).lowest)
     assert f"min {np.min(lowest):.4g}, median {np.median(lowest):.4g}" in stdout
@@ -128,3 +130,14 @@ def test_bad_records_and_out(tmp_path, at2_files):
 def test_demo_still_parses():
     rc, stdout, _ = _run(["demo", "--help"])
     assert rc == 0 and "--quick" in stdout
+
+
+def test_unwritable_out_fails_before_any_run(tmp_path, at2_files):
+    """An output path inside a regular file cannot be written: the command says so before it
+    runs anything (nothing is computed and then lost)."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    argv = ["ida", "--records", at2_files[0], "--scales", "0.5", "--out", blocker / "ida.nc"]
+    rc, stdout, stderr = _run(argv)
+    assert rc == 2 and "--out: cannot write into" in stderr, stderr
+    assert "runs ->" not in stdout  # the run summary printed before computing never came
