@@ -4,6 +4,8 @@ batched throughput. A script that prints tables, not a test (STYLE.md section 5)
     python benchmarks/bench_dem.py            # full: also the XLA-flag, 2-device, layout,
                                               # chunking and one-core comparisons (~1.5-2 min)
     python benchmarks/bench_dem.py --quick    # compile, histories, batched vmap (< 40 s)
+    python benchmarks/bench_dem.py --contact  # only one 20 s history per contact law:
+                                              # n_sub 2, 12 and "exact" (the face law)
 
 Every time is the median of repeated calls after a warm-up call, each ended by
 ``jax.block_until_ready``; the minimum is printed beside it because the machine may be shared
@@ -184,6 +186,29 @@ def bench_history(repeats: int) -> list[dict]:
     return rows
 
 
+def bench_contact(repeats: int) -> list[dict]:
+    """One 20 s history per block and contact law (``n_sub`` 2, 12, ``"exact"``), each at its
+    own default step, jitted with the block and step closed over."""
+    rec = ricker(HISTORY_S)
+    ag = jnp.asarray(rec.ag)
+    rows = []
+    for name in BLOCKS:
+        block, beta = block_and_beta(name)
+        for n_sub in (2, 12, "exact"):
+            dt = rj.stable_dt(block, beta, n_sub=n_sub)
+
+            def one(scale, dt=dt, n_sub=n_sub):
+                motion = rj.GroundMotion(ag=scale * ag, dt=RECORD_DT)
+                return rj.simulate_dem(block, motion, beta=beta, dt=dt, n_sub=n_sub).theta_max
+
+            f = jax.jit(one)
+            r = rj.simulate_dem(block, ricker(0.05), beta=beta, dt=dt, n_sub=n_sub)
+            steps = rec.n * round(RECORD_DT / float(r.extras["dt"]))
+            med, best = timed(lambda: f(1.0), repeats)
+            rows.append({"block": name, "n_sub": n_sub, "steps": steps, "med": med, "min": best})
+    return rows
+
+
 def bench_batched(batches, record_s: float, mode: str = "vmap", chunk: int = 256) -> list[dict]:
     """Block-steps/s of ``simulate_dem`` batched over the amplitude of one record.
 
@@ -329,6 +354,9 @@ def print_batched(title: str, rows: list[dict]) -> None:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="compile, histories and plain vmap only")
+    p.add_argument(
+        "--contact", action="store_true", help="only the contact laws: n_sub 2, 12, 'exact'"
+    )
     p.add_argument("--worker", help=argparse.SUPPRESS)
     p.add_argument("--record-s", type=float, default=2.0, help=argparse.SUPPRESS)
     p.add_argument("--batches", default="1024", help=argparse.SUPPRESS)
@@ -339,6 +367,18 @@ def main() -> None:
         return
 
     t_start = time.perf_counter()
+    if args.contact:
+        print(
+            f"One {HISTORY_S:g} s history (Ricker pga 3 m/s^2), beta = beta_dejong(block), the "
+            f"default step of each contact law, jit; median of 7. {machine()}"
+        )
+        print(f"  {'block':<8}{'n_sub':>7}{'steps':>8}{'median ms':>11}{'min ms':>9}{'ns/step':>9}")
+        for r in bench_contact(7):
+            print(
+                f"  {r['block']:<8}{r['n_sub']!s:>7}{r['steps']:>8}{r['med'] * 1e3:>11.2f}"
+                f"{r['min'] * 1e3:>9.2f}{r['med'] / r['steps'] * 1e9:>9.0f}"
+            )
+        return
     record_s = 1.0 if args.quick else 2.0
     batches = [1, 64, 1024, 8192]
     print(

@@ -30,6 +30,9 @@ Contact onset (``onset=``):
 * ``"step"``: the plain law at the step's position, as in UDEC/3DEC: a dashpot switches on
   with its full force at the first penetrated step, so the energy lost per impact jumps as
   impact times cross step boundaries (``e(beta)`` is rough at the ~1e-4 level).
+
+The integrated face law of :mod:`rockjax.dem` (``n_sub="exact"``) integrates
+:func:`normal_force` over each face, with ``k_n`` the stiffness per unit length of face.
 """
 
 import jax.numpy as jnp

@@ -8,6 +8,9 @@ stiffness-proportional Rayleigh damping ``beta`` as a dashpot ``c = beta k`` on 
 sub-contact (see :mod:`rockjax.contact` for the two damping conventions). A facade
 (``mode="one_sided"``) also has a rigid return wall at its -x face, a distance ``gap`` behind
 it, meeting sub-contacts on the block's back face (same joint stiffness per unit area).
+``n_sub="exact"`` replaces the sub-contacts of each face by their ``n_sub -> infinity`` limit,
+the same law integrated over the face (a continuous Winkler joint; one resultant shear spring
+per face; see :func:`_face` and docs/theory.md, "Integrated face contact").
 
 Integration: central differences with centred dashpots (the dashpot force uses the velocity
 at the step, the mean of the two half-step velocities, so the scheme is second-order accurate;
@@ -41,6 +44,9 @@ from .motion import GroundMotion
 from .response import STATUS_MESSAGES, STATUS_NONFINITE, STATUS_OK, STATUS_UNSTABLE, Response
 
 MODES = ("two_sided", "one_sided")
+FACE = "exact"
+"""``n_sub=FACE``: the integrated face contact law, the ``n_sub -> infinity`` limit of the
+sub-contacts (docs/theory.md, "Integrated face contact")."""
 
 DT_SAFETY = 0.5
 """Largest fraction of the explicit stability limit a default step may take."""
@@ -76,8 +82,11 @@ class DemParams(eqx.Module):
     v_wall: jax.Array
     kn_wall: jax.Array
     ks_wall: jax.Array
+    kn_line: jax.Array  # joint stiffness per unit face length, j_kn * length [N/m^2]
+    ks_line: jax.Array
     dashpot: str = eqx.field(static=True)
     onset: str = eqx.field(static=True, default="sub_step")
+    face: bool = eqx.field(static=True, default=False)  # the integrated face law (n_sub="exact")
 
 
 class DemState(eqx.Module):
@@ -86,7 +95,8 @@ class DemState(eqx.Module):
     ``x, y`` locate the centroid in the base frame [m] (the base surface is ``y = 0``, the
     block's rest position is ``x = 0``); ``theta`` [rad] with ``c, s = cos, sin(theta)``;
     ``vx, vy`` [m/s]; ``w`` [rad/s]; ``fs_base``, ``fs_wall``: shear spring force per
-    sub-contact [N]; ``theta_max``, ``d_max``: running maxima of ``|theta|`` and ``|d|``.
+    sub-contact [N] (one per face with ``n_sub="exact"``); ``theta_max``, ``d_max``: running
+    maxima of ``|theta|`` and ``|d|``.
 
     The outer scan (one step per record sample) carries the state packed in one vector (see
     :func:`_pack`) for its freeze and finiteness checks; the inner scan over the substeps
@@ -135,7 +145,7 @@ def dem_params(
     *,
     mode: str = "two_sided",
     gap=0.0,
-    n_sub: int = 2,
+    n_sub: int | str = 2,
     phi_deg=None,
     dashpot: str = "closed",
     onset: str = "sub_step",
@@ -144,10 +154,7 @@ def dem_params(
     check_choice("mode", mode, MODES)
     check_choice("dashpot", dashpot, DASHPOTS)
     check_choice("onset", onset, ONSETS)
-    if not isinstance(n_sub, int) or n_sub < 2:
-        raise ValueError(
-            f"n_sub (sub-contacts per face) must be an integer >= 2; got n_sub={n_sub}."
-        )
+    _check_n_sub(n_sub, dashpot)
     check_nonnegative("beta", beta, "s", "beta is the stiffness-proportional Rayleigh coefficient.")
     check_nonnegative("gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.")
     if phi_deg is None:
@@ -160,19 +167,42 @@ def dem_params(
     )
 
 
+def _check_n_sub(n_sub, dashpot):
+    if n_sub == FACE:
+        if dashpot != "closed":
+            raise ValueError(
+                f"dashpot={dashpot!r} is not available with n_sub={FACE!r} (the integrated face "
+                "law): the clipped dashpot's no-tension cut runs through the interior of the "
+                "closed zone. Use dashpot='closed', or integer n_sub (e.g. 16) for 'clipped'."
+            )
+        return
+    if isinstance(n_sub, bool) or not isinstance(n_sub, int) or n_sub < 2:
+        raise ValueError(
+            f"n_sub (sub-contacts per face) must be an integer >= 2 or {FACE!r} (the "
+            f"integrated face law, the n_sub -> infinity limit); got n_sub={n_sub!r}."
+        )
+
+
 # Compiled: one call instead of ~40 eager ops (~1.5 ms a call; docs/benchmarks.md).
 @jax.jit(static_argnames=("mode", "n_sub", "dashpot", "onset"))
 def _build_params(
-    block: Block, beta, gap, phi_deg, *, mode: str, n_sub: int, dashpot: str, onset: str
+    block: Block, beta, gap, phi_deg, *, mode: str, n_sub: int | str, dashpot: str, onset: str
 ):
     b, h = jnp.asarray(block.b, float), jnp.asarray(block.h, float)
-    s = jnp.linspace(-0.5, 0.5, n_sub)
-    area_base = _trapezoid_areas(n_sub, b, block.length)
+    face = n_sub == FACE
+    if face:
+        # the two-point Gauss rule of the face: its springs give the all-closed stiffness
+        # matrix of the continuous joint exactly (omega_max, the settlement at rest)
+        s = jnp.array([-0.5, 0.5]) / math.sqrt(3.0)
+        area_base = 0.5 * b * block.length * jnp.ones(2)
+        area_wall = 0.5 * h * block.length * jnp.ones(2)
+    else:
+        s = jnp.linspace(-0.5, 0.5, n_sub)
+        area_base = _trapezoid_areas(n_sub, b, block.length)
+        area_wall = _trapezoid_areas(n_sub, h, block.length)
     if mode == "one_sided":
-        n_wall = n_sub
-        u_wall = -0.5 * b * jnp.ones(n_wall)
+        u_wall = -0.5 * b * jnp.ones(s.shape[0])
         v_wall = s * h
-        area_wall = _trapezoid_areas(n_wall, h, block.length)
     else:
         u_wall = v_wall = area_wall = jnp.zeros(0)
     return DemParams(
@@ -185,15 +215,18 @@ def _build_params(
         tan_phi=jnp.tan(jnp.deg2rad(jnp.asarray(phi_deg, float))),
         gap=jnp.asarray(gap, float),
         u_base=s * b,
-        v_base=-0.5 * h * jnp.ones(n_sub),
+        v_base=-0.5 * h * jnp.ones(s.shape[0]),
         kn_base=block.j_kn * area_base,
         ks_base=block.j_ks * area_base,
         u_wall=u_wall,
         v_wall=v_wall,
         kn_wall=block.j_kn * area_wall,
         ks_wall=block.j_ks * area_wall,
+        kn_line=jnp.asarray(block.j_kn * block.length, float),
+        ks_line=jnp.asarray(block.j_ks * block.length, float),
         dashpot=dashpot,
         onset=onset,
+        face=face,
     )
 
 
@@ -259,7 +292,7 @@ def stable_dt(
     beta=0.0,
     *,
     mode: str = "two_sided",
-    n_sub: int = 2,
+    n_sub: int | str = 2,
     gap=0.0,
     dashpot: str = "closed",
     accuracy: float | None = None,
@@ -277,7 +310,7 @@ def stable_dt(
         block: The block.
         beta: Stiffness-proportional damping coefficient [s], Eq. (1).
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
-        n_sub: Sub-contacts per face.
+        n_sub: Sub-contacts per face, or ``"exact"`` (the integrated face law).
         gap: Facade gap [m] (does not change the step).
         dashpot: Damping convention (does not change the step).
         accuracy: ``omega_max dt (1 + zeta)`` [-]; default ``DT_ACCURACY[mode]`` (0.5 for
@@ -365,6 +398,168 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s):
     return fx, fy, mom, tuple(fn_base), tuple(fs_base), tuple(fs_wall), damping
 
 
+# ----------------------------------------------------------------------------- face law
+
+_GAUSS_X = (-1.0 / math.sqrt(3.0), 1.0 / math.sqrt(3.0))
+"""Two-point Gauss-Legendre nodes on [-1, 1] (weights 1): exact for cubics. Each piece of a
+face between the breakpoints of the contact law gets this rule, so the closed part's
+polynomials (degree <= 2 in the face coordinate) are integrated exactly."""
+
+FACE_SHEAR_RELEASE = "uniform"
+"""Integrated face law: what the resultant shear spring keeps when the closed part of a face
+moves (the points that open release their shear, as each sub-contact's spring does):
+``"uniform"`` assumes a uniform stress over the closed part and keeps the share of the closed
+length that stays closed; ``"pressure"`` assumes the stress shaped like the previous step's
+penetration (its Mohr-Coulomb cap, which vanishes at the contact line); ``"none"`` keeps the
+spring whole. docs/verification.md ("Integrated face contact") compares them with 64
+sub-contacts: ``"uniform"`` is the closest with damping (first-impact ``e`` within 5e-5)."""
+
+
+def _linear_integral(a, b, d_a, d_b):
+    """Integral over [a, b] of the linear function with end values d_a, d_b."""
+    return 0.5 * (b - a) * (d_a + d_b)
+
+
+def _crossing(lo, hi, d_lo, d_hi):
+    """Where the linear field with end values ``d_lo``, ``d_hi`` crosses zero on [lo, hi]
+    (``lo`` when it does not)."""
+    cross = d_lo * d_hi < 0.0
+    den = jnp.where(cross, d_lo - d_hi, 1.0)
+    return lo + (hi - lo) * jnp.where(cross, d_lo / den, 0.0)
+
+
+def _closed_interval(lo, hi, d_lo, d_hi):
+    """The interval of [lo, hi] where the linear field is > 0 (empty: ``ca == cb``)."""
+    z = _crossing(lo, hi, d_lo, d_hi)
+    ca = jnp.where(d_lo > 0.0, lo, z)
+    cb = jnp.where(d_hi > 0.0, hi, z)
+    return ca, jnp.maximum(cb, ca)
+
+
+def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist):
+    """Integrated contact of one face on a continuous Winkler joint (normal and shear
+    stiffness per unit length ``kn_line``, ``ks_line``).
+
+    The face is ``{(t, -h/2)}`` (base, ``t`` in [-b/2, b/2]) or ``{(-b/2, t)}`` (back face
+    against the wall, ``t`` in [-h/2, h/2]). For a rigid body the penetration, its rate, the
+    slip rate and the lever arms are all linear in ``t``; the contact law of a point
+    (:func:`rockjax.contact.normal_force`, with its onset window) is then piecewise polynomial
+    in ``t``, with breakpoints where the penetration at the ends of the step window,
+    ``delta -+ delta_dot dt/2``, changes sign. The face is cut at those breakpoints and each
+    piece integrated by two-point Gauss-Legendre: exact on the closed part (degree <= 2), and on
+    the onset band, where the elastic part is a ratio of linear functions, exact to
+    ``O(dt^2)`` of a force that lasts a fraction of a step.
+
+    Shear: one elastic-plastic spring per face, stiffness ``ks_line`` times the closed length,
+    capped at ``tan(phi)`` times the face's elastic normal force and applied with the lever
+    arm of the closed part's centroid; ``hist = (f_s,)`` is the spring force [N]. When the
+    closed part moves, the spring keeps the share given by :data:`FACE_SHEAR_RELEASE`
+    (docs/theory.md, "Integrated face contact").
+
+    Returns ``(Fx, Fy, moment, fn, hist_new, (cxx, cyy, cxt, cyt, ctt))``.
+    """
+    half_b, half_h = 0.5 * params.b, 0.5 * params.h
+    if wall:
+        lo, hi = -half_h, half_h
+        wall_x = -half_b - params.gap
+
+        def kin(t):
+            rx, ry, x_pt, _, xd, yd = _point_kinematics(state, -half_b, t, c, s)
+            return rx, ry, wall_x - x_pt, -xd, yd
+    else:
+        lo, hi = -half_b, half_b
+
+        def kin(t):
+            rx, ry, _, y_pt, xd, yd = _point_kinematics(state, t, -half_h, c, s)
+            return rx, ry, -y_pt, -yd, xd
+
+    # everything is linear in t: the end values define it
+    ends = [kin(lo), kin(hi)]
+
+    def at(t):
+        w = (t - lo) / (hi - lo)
+        return tuple(a + w * (b_ - a) for a, b_ in zip(*ends))
+
+    d_lo, d_hi = ends[0][2], ends[1][2]
+    if params.onset == "sub_step":
+        hw = 0.5 * dt
+        r_lo, r_hi = ends[0][3], ends[1][3]
+        z1 = _crossing(lo, hi, d_lo - hw * r_lo, d_hi - hw * r_hi)
+        z2 = _crossing(lo, hi, d_lo + hw * r_lo, d_hi + hw * r_hi)
+        cuts = [lo, jnp.minimum(z1, z2), jnp.maximum(z1, z2), hi]
+        dt_onset = dt
+    else:
+        cuts = [lo, _crossing(lo, hi, d_lo, d_hi), hi]
+        dt_onset = None
+    kn, ks, beta = params.kn_line, params.ks_line, params.beta
+    fn = fn_el = mom_n = 0.0
+    n0 = n1 = n2 = 0.0  # integrals of frac, frac * arm_n, frac * arm_n^2
+    s0 = s1 = s2 = 0.0  # integrals of frac, frac * arm_s, frac * arm_s^2
+    v0 = v1 = 0.0  # integrals of frac * slip, frac * slip * arm_s
+    for a, b_ in zip(cuts[:-1], cuts[1:]):
+        mid, half = 0.5 * (a + b_), 0.5 * (b_ - a)
+        for xg in _GAUSS_X:
+            rx, ry, delta, delta_dot, slip = at(mid + half * xg)
+            f, f_el, frac = normal_force(delta, delta_dot, kn, beta, params.dashpot, dt_onset)
+            # lever arms (moment = ry Fx - rx Fy) of the normal and the shear force
+            arm_n, arm_s = (ry, -rx) if wall else (-rx, ry)
+            wf = half * frac
+            fn, fn_el, mom_n = fn + half * f, fn_el + half * f_el, mom_n + half * f * arm_n
+            n0, n1, n2 = n0 + wf, n1 + wf * arm_n, n2 + wf * arm_n * arm_n
+            s1, s2 = s1 + wf * arm_s, s2 + wf * arm_s * arm_s
+            v0, v1 = v0 + wf * slip, v1 + wf * slip * arm_s
+    s0 = n0
+    # shear: one spring per face; the previous step's penetration is delta - dt delta_dot
+    # (the lagged velocity is the one that took the block from there to here)
+    (f_s,) = hist
+    if FACE_SHEAR_RELEASE != "none":
+        o_lo, o_hi = d_lo - dt * ends[0][3], d_hi - dt * ends[1][3]
+        ca_old, cb_old = _closed_interval(lo, hi, o_lo, o_hi)
+        ca, cb = _closed_interval(lo, hi, d_lo, d_hi)
+        ka, kb = jnp.maximum(ca, ca_old), jnp.minimum(cb, cb_old)
+        kb = jnp.maximum(kb, ka)
+        if FACE_SHEAR_RELEASE == "pressure":
+
+            def old_pen(x):
+                return o_lo + (x - lo) / (hi - lo) * (o_hi - o_lo)
+
+            whole = _linear_integral(ca_old, cb_old, old_pen(ca_old), old_pen(cb_old))
+            kept = _linear_integral(ka, kb, old_pen(ka), old_pen(kb))
+        else:
+            whole, kept = cb_old - ca_old, kb - ka
+        safe = jnp.where(whole > 0.0, whole, 1.0)
+        f_s = f_s * jnp.where(whole > 0.0, jnp.clip(kept / safe, 0.0, 1.0), 0.0)
+    limit = params.tan_phi * fn_el
+    f_s = jnp.clip(f_s - ks * v0 * dt, -limit, limit)
+    arm_bar = jnp.where(s0 > 0.0, s1 / jnp.where(s0 > 0.0, s0, 1.0), 0.0)
+    ft = f_s - beta * ks * v0
+    mom = mom_n + f_s * arm_bar - beta * ks * v1
+    cn, cs = beta * kn, beta * ks
+    n = (cn * n0, cn * n1, cn * n2)
+    t_ = (cs * s0, cs * s1, cs * s2)
+    if wall:  # normal along x, shear along y
+        fx, fy = fn, ft
+        (cxx, cxt, ctt_x), (cyy, cyt, ctt_y) = n, t_
+    else:
+        fx, fy = ft, fn
+        (cxx, cxt, ctt_x), (cyy, cyt, ctt_y) = t_, n
+    # the generalised dashpot matrix uses J_x = (1, 0, ry), J_y = (0, 1, -rx): the arms above
+    # are ry for x-forces and -rx for y-forces, so C_xt = sum c ry and C_yt = sum c (-rx)
+    return fx, fy, mom, fn, (f_s,), (cxx, cyy, cxt, cyt, ctt_x + ctt_y)
+
+
+def _face_forces(params: DemParams, state: DemState, dt, c, s):
+    """:func:`_contact_forces` for the integrated face law."""
+    fx, fy, mom, fn, hb, damp = _face(params, state, dt, c, s, False, state.fs_base)
+    fs_wall = ()
+    if len(state.fs_wall):
+        wx, wy, wm, _, hw, dw = _face(params, state, dt, c, s, True, state.fs_wall)
+        fx, fy, mom = fx + wx, fy + wy, mom + wm
+        damp = tuple(a + b_ for a, b_ in zip(damp, dw))
+        fs_wall = hw
+    return fx, fy, mom, (fn,), hb, fs_wall, damp
+
+
 def _step(params: DemParams, state: DemState, ag, ag_v, dt):
     """One central-difference step with centred dashpots; also returns the accelerations at
     step n.
@@ -379,9 +574,8 @@ def _step(params: DemParams, state: DemState, ag, ag_v, dt):
     1e-15, and no transcendental function is evaluated in the loop.
     """
     c, s = state.c, state.s
-    fx, fy, mom, fn, fs_base, fs_wall, (cxx, cyy, cxt, cyt, ctt) = _contact_forces(
-        params, state, dt, c, s
-    )
+    forces = _face_forces if params.face else _contact_forces
+    fx, fy, mom, fn, fs_base, fs_wall, (cxx, cyy, cxt, cyt, ctt) = forces(params, state, dt, c, s)
     h = 0.5 * dt
     gx = fx - params.m * ag
     gy = fy - params.m * (G + ag_v)
@@ -422,6 +616,8 @@ def _energy(params: DemParams, state: DemState, vx, vy, w, c, s):
     """Kinetic + gravitational (from y = h/2) + contact spring energy [J]."""
     e = 0.5 * params.m * (vx**2 + vy**2) + 0.5 * params.I_c * w**2
     e = e + params.m * G * (state.y - 0.5 * params.h)
+    if params.face:
+        return e + _face_energy(params, state, c, s)
     for i in range(len(state.fs_base)):
         _, _, _, y_pt, _, _ = _point_kinematics(state, params.u_base[i], params.v_base[i], c, s)
         delta = jnp.maximum(-y_pt, 0.0)
@@ -434,19 +630,67 @@ def _energy(params: DemParams, state: DemState, vx, vy, w, c, s):
     return e
 
 
+def _face_energy(params: DemParams, state: DemState, c, s):
+    """Spring energy of the integrated faces [J]: ``kn_line delta^2 / 2`` integrated exactly
+    over the closed interval, and ``f_s^2 / (2 ks_line length)`` of each face's shear spring."""
+    e = 0.0
+    faces = [(False, state.fs_base)] + ([(True, state.fs_wall)] if len(state.fs_wall) else [])
+    for wall, (f_s,) in faces:
+        if wall:
+            lo, hi = -0.5 * params.h, 0.5 * params.h
+            wall_x = -0.5 * params.b - params.gap
+
+            def pen(t):
+                return wall_x - _point_kinematics(state, -0.5 * params.b, t, c, s)[2]
+        else:
+            lo, hi = -0.5 * params.b, 0.5 * params.b
+
+            def pen(t):
+                return -_point_kinematics(state, t, -0.5 * params.h, c, s)[3]
+
+        ca, cb = _closed_interval(lo, hi, pen(lo), pen(hi))
+        mid, half = 0.5 * (ca + cb), 0.5 * (cb - ca)
+        for xg in _GAUSS_X:
+            e = e + 0.5 * params.kn_line * half * jnp.maximum(pen(mid + half * xg), 0.0) ** 2
+        length = cb - ca
+        safe = jnp.where(length > 0.0, length, 1.0)
+        e = e + jnp.where(length > 0.0, 0.5 * f_s**2 / (params.ks_line * safe), 0.0)
+    return e
+
+
 @jax.jit
 def initial_state(params: DemParams, theta0=0.0) -> DemState:
-    """At rest: on both corners under gravity (``theta0 = 0``), or tilted by ``theta0`` [rad] on
-    its pivot corner with that corner's spring carrying the weight."""
+    """At rest: flat on its base under gravity (``theta0 = 0``), or tilted by ``theta0`` [rad]
+    about its pivot corner, sunk so that the closed contacts carry the weight (vertical
+    equilibrium; the moment is what releases it).
+
+    With sub-contacts the pivot corner alone carries the weight while its sink is below the
+    height of the next sub-contact; with many sub-contacts (small tributary areas) several
+    carry it, and the sink solves ``sum_i k_i max(sink - d_i, 0) = m g``, ``d_i`` the height
+    of sub-contact ``i`` above the pivot (a corner spring alone would be compressed far
+    beyond equilibrium and launch the block)."""
     theta0 = jnp.asarray(theta0, float)
     zero = jnp.zeros(())
     n_base = params.u_base.shape[0]
-    settle = params.m * G / jnp.sum(params.kn_base)
     side = jnp.sign(theta0)
     up = side * 0.5 * params.b  # pivot corner, body coordinates (up, -h/2)
     vp = -0.5 * params.h
-    k_pivot = params.kn_base[-1]  # corners have equal stiffness
-    sink = jnp.where(side == 0, settle, params.m * G / k_pivot)
+    # piecewise-linear vertical equilibrium, solved exactly bracket by bracket
+    d = jnp.abs(jnp.sin(theta0)) * jnp.abs(up - params.u_base) * jnp.where(side == 0, 0.0, 1.0)
+    order = jnp.argsort(d)
+    d, k = d[order], params.kn_base[order]
+    cand = (params.m * G + jnp.cumsum(k * d)) / jnp.cumsum(k)
+    upper = jnp.concatenate([d[1:], jnp.full((1,), jnp.inf)])
+    first = jnp.argmax(cand <= upper)
+    sink = cand[first]
+    if params.face:
+        # the weight on a Winkler joint: a triangle of contact from the pivot corner, or the
+        # whole face (a trapezoid) when the tilt is below sink / b
+        w_line = params.m * G / params.kn_line
+        tilt = jnp.abs(jnp.sin(theta0))
+        tri = jnp.sqrt(2.0 * w_line * tilt)
+        trap = w_line / params.b + 0.5 * tilt * params.b
+        sink = jnp.where(tri < tilt * params.b, tri, trap)
     c, s = jnp.cos(theta0), jnp.sin(theta0)
     x0 = jnp.where(side == 0, 0.0, up - (up * c + vp * s))
     y0 = -sink - (-up * s + vp * c)
@@ -461,8 +705,9 @@ def initial_state(params: DemParams, theta0=0.0) -> DemState:
         theta=theta0,
         theta_max=jnp.abs(theta0),
         d_max=zero,
-        fs_base=(zero,) * n_base,
-        fs_wall=(zero,) * params.u_wall.shape[0],
+        fs_base=(zero,) * (1 if params.face else n_base),
+        fs_wall=(zero,)
+        * (min(1, params.u_wall.shape[0]) if params.face else params.u_wall.shape[0]),
     )
 
 
@@ -563,7 +808,7 @@ def simulate_dem(
     duration: float | None = None,
     dt: float | None = None,
     accuracy: float | None = None,
-    n_sub: int = 2,
+    n_sub: int | str = 2,
     phi_deg=None,
     dashpot: str = "closed",
     onset: str = "sub_step",
@@ -589,7 +834,9 @@ def simulate_dem(
         accuracy: Accuracy of the default step, ``omega_max dt (1 + zeta)`` [-] (ignored when
             ``dt`` is given); default ``DT_ACCURACY[mode]``, which puts the first-impact ``e``
             within 1e-3 of its converged value (docs/verification.md). Smaller is finer.
-        n_sub: Sub-contact points per face (>= 2; 2 puts them at the corners).
+        n_sub: Sub-contact points per face (>= 2; 2 puts them at the corners), or ``"exact"``:
+            the contact law integrated in closed form over each face, the ``n_sub -> infinity``
+            limit (docs/theory.md, "Integrated face contact"; ``dashpot="closed"`` only).
         phi_deg: Friction angle [deg]; default 50 (parapets) or 30 (facades), as in the paper.
         dashpot: ``"closed"`` (default) or ``"clipped"``; see :mod:`rockjax.contact`.
         onset: ``"sub_step"`` (default: contact onsets located inside the step, so responses

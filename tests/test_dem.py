@@ -460,3 +460,216 @@ def test_first_impact_e_converges_in_n_sub(n_subs):
     )
     assert abs(mid - fine) < NSUB_TOL, (coarse, mid, fine)
     assert abs(coarse - fine) > 2 * abs(mid - fine), (coarse, mid, fine)
+
+
+# ============================================================================================
+# Integrated face contact (n_sub="exact"): the contact law integrated in closed form over each
+# face, the n_sub -> infinity limit of the sub-contacts (docs/theory.md, "Integrated face
+# contact"; measurements in docs/verification.md, "Integrated face contact").
+# ============================================================================================
+
+EXACT = "exact"
+STATIC_RTOL = 1e-3  # statics by hand are exact; the averaged hold is within 4e-5 of them
+FACE_LIMIT_TOL = 3e-4  # first-impact e, face law vs n_sub 128 (measured 4e-5; 64 vs 128: 1e-5)
+ENERGY_WOBBLE = 5e-4  # shadow-energy rise of central differences, O(dt^2) (measured 7e-5)
+LOSS_N64 = 4.5e-3  # energy lost in 6 s by n_sub = 64 at beta = 0 (docs/verification.md)
+LOSS_TOL = 1.5e-3  # face law vs n_sub = 64 loss (measured 0.51 % vs 0.45 %)
+FACE_LIMIT_TOL_UNDAMPED = 1e-3  # beta = 0: the resultant shear spring (measured 5.5e-4)
+FACE_PEAK_RTOL = 0.02  # facade first rebound, face law vs n_sub = 64 (measured < 1 %)
+
+
+def _settled_tilt(blk, a_g, ramp=8.0, hold=1.5):
+    """Mean theta [rad] over a hold at the constant ground acceleration a_g [m/s^2], reached by a
+    C2 ramp (6x^5 - 15x^4 + 10x^3) over ``ramp`` s. Rocking on the uplifted joint is slow
+    (period ~0.75 s) and barely damped by beta, so the load comes quasi-statically and the
+    residual oscillation (~1e-3 of theta) is averaged over the hold."""
+    dt = 0.002
+    t = np.arange(0.0, ramp + hold, dt)
+    x = np.minimum(t, ramp) / ramp
+    gm = rj.GroundMotion(ag=a_g * x**3 * (10 - 15 * x + 6 * x * x), dt=dt)
+    r = rj.simulate_dem(blk, gm, beta=rj.beta_dejong(blk), n_sub=EXACT)
+    return float(np.mean(np.asarray(r.theta)[np.asarray(r.t) > ramp]))
+
+
+def _winkler_tilt(blk, a_g):
+    """Statics by hand of a rigid block on a Winkler joint (vertical springs j_kn L per unit
+    length, horizontal shear uniform over the contact) under gravity and the inertial load
+    -m a_g: ``(sin theta, contact length)``. Vertical: W = integral of the pressure; moment
+    about the centroid of the pressure (triangle or trapezoid) and of the shear at the base."""
+    from scipy.optimize import brentq
+
+    b, h, m = float(blk.b), float(blk.h), float(blk.m)
+    kl = float(blk.j_kn * blk.length)
+    W = m * G
+
+    def residual(s):
+        c = np.sqrt(1.0 - s * s)
+        ell = np.sqrt(2.0 * W / (kl * s)) if s > 0 else np.inf
+        if ell < b:  # uplifted: triangle from the toe u = b/2
+            u_n, u_s = b / 2 - ell / 3, b / 2 - ell / 2
+        else:  # full contact: trapezoid, centroid b^2 s / (12 d0) with W = kl d0 b
+            d0 = W / (kl * b)
+            u_n, u_s = (kl * s * b**3 / 12) / W, 0.0
+            del d0
+            ell = b
+        # sum of (ry fx - rx fy), rx = u c - (h/2) s, ry = -u s - (h/2) c, fx total m a_g
+        return m * a_g * (-(h / 2) * c - s * u_s) - W * (c * u_n - (h / 2) * s)
+
+    s = brentq(residual, 1e-12, 1e-2, xtol=1e-18)  # the elastic tilt is ~1e-4 rad
+    return s, min(np.sqrt(2.0 * W / (float(blk.j_kn * blk.length) * s)), b)
+
+
+def test_face_at_rest_sinks_by_the_winkler_settlement(parapet):
+    """Reference: statics; the weight on the whole face sinks it by m g / (j_kn b L)."""
+    r = rj.simulate_dem(parapet, beta=0.0, duration=5.0, n_sub=EXACT)
+    assert float(jnp.max(jnp.abs(r.theta))) < REST_TOL
+    sink = 0.5 * float(parapet.h) - float(r.extras["y"][-1])
+    ref = float(parapet.m) * G / float(parapet.j_kn * parapet.b * parapet.length)
+    assert np.isclose(sink, ref, rtol=1e-9), (sink, ref)
+
+
+@pytest.mark.parametrize("frac", [0.15, 0.75], ids=["full-contact", "uplifted"])
+def test_face_static_tilt_matches_winkler_statics(frac):
+    """Reference: statics by hand of a rigid block on a Winkler joint (_winkler_tilt): below
+    the kern limit (a_g ~ g b / (3 h)) the whole face stays closed and tilts elastically;
+    above it the heel lifts and the contact is a triangle of length l = sqrt(2 W / (j_kn L s))."""
+    blk = rj.Block(b=0.2, h=1.5)
+    a_g = -frac * G * float(blk.b / blk.h)  # negative: rotates theta > 0 (toe at +b/2)
+    theta = _settled_tilt(blk, a_g)
+    s_ref, ell = _winkler_tilt(blk, a_g)
+    assert (ell < float(blk.b)) == (frac > 0.5)
+    assert abs(np.sin(theta) - s_ref) < STATIC_RTOL * s_ref, (np.sin(theta), s_ref, ell)
+
+
+def _face_drop_restitution(blk, xi, n_in):
+    """As _drop_restitution, with the integrated face law: the face lands flat."""
+    w = np.sqrt(float(blk.j_kn * blk.b * blk.length) / float(blk.m))
+    params = dem.dem_params(blk, 2 * xi / w, n_sub=EXACT)
+    v0 = 0.5
+    s0 = dem.initial_state(params)
+    s0 = eqx.tree_at(lambda s: (s.y, s.vy), s0, (jnp.asarray(0.5 * blk.h + 2e-4), jnp.asarray(-v0)))
+    dt_out, n = 1e-3, 40
+    r = dem._run(
+        params, s0, np.zeros(n), np.full(n, -G), np.asarray(dt_out / n_in), dt_out, n_in, (), True
+    )
+    y = np.asarray(r.extras["y"])
+    return (y[-1] - y[-2]) / dt_out / v0
+
+
+def test_face_flat_drop_is_exact_and_second_order(parapet):
+    """Reference: the linear spring-dashpot impact e_n = exp(-pi xi / sqrt(1 - xi^2)): a face
+    landing flat closes everywhere at once, and the onset window keeps the dashpot's switch-on
+    second-order accurate."""
+    xi = 0.2
+    exact = np.exp(-np.pi * xi / np.sqrt(1 - xi**2))
+    n_in = np.array([4, 8, 16, 32])
+    e = np.array([_face_drop_restitution(parapet, xi, int(k)) for k in n_in])
+    assert abs(e[-1] - exact) < DROP_E_TOL, (e, exact)
+    assert _order(1.0 / n_in, e - exact) > MIN_ORDER, e - exact
+
+
+def test_face_energy_without_damping_follows_many_sub_contacts():
+    """Reference: energy balance at beta = 0. The normal law is elastic, so the energy can only
+    wobble (the scheme's O(dt^2) shadow energy); the one loss is the shear spring's release as
+    the closed part of the face moves, which the sub-contact model has too: over 6 s of free
+    rocking of the 0.25 x 3 m parapet n_sub = 64 loses 0.45 % of the rocking energy (n_sub = 2,
+    whose corner springs barely move, 0.02 %; docs/verification.md)."""
+    blk = rj.Block(**PARAPET)
+    kw = dict(beta=0.0, save=("energy",), n_sub=EXACT)
+    rest = rj.simulate_dem(blk, duration=0.1, **kw)
+    r = rj.simulate_dem(blk, theta0=0.5 * blk.eta, duration=6.0, **kw)
+    e = np.asarray(r.energy)
+    rel = (e - e[0]) / (e[0] - float(rest.energy[0]))
+    assert np.max(rel) < ENERGY_WOBBLE, np.max(rel)
+    assert abs(-rel[-1] - LOSS_N64) < LOSS_TOL, rel[-1]
+    assert r.theta_max > 0.45 * blk.eta
+
+
+@pytest.mark.parametrize(
+    "frac, ref, tol",
+    [(0.5, 0.96963, FACE_LIMIT_TOL), (0.0, 0.99905, FACE_LIMIT_TOL_UNDAMPED)],
+    ids=["half-bDJ", "beta0"],
+)
+def test_face_first_impact_e_matches_many_sub_contacts(frac, ref, tol):
+    """Reference: the limit of the sub-contact model on the 0.2 x 1.5 m parapet, e_exp,1 with
+    n_sub = 128 at dt_d/2: 0.96963 at 0.5 beta_DeJong (n_sub = 64: 0.96962), and with
+    n_sub = 64 at beta = 0: 0.99905 (docs/verification.md "Integrated face contact");
+    n_sub = 2 gives 0.95358 and 0.98819."""
+    blk = rj.Block(b=0.2, h=1.5)
+    beta = frac * float(rj.beta_dejong(blk))
+    r = rj.simulate_dem(
+        blk, beta=beta, theta0=0.5 * blk.eta, duration=1.2, save_dt=2.5e-4, n_sub=EXACT
+    )
+    e = float(r.e_exp(1)[0])
+    assert abs(e - ref) < tol, e
+
+
+def test_face_first_impact_e_observed_order():
+    """Reference: self-convergence against dt_default/32 (computed here)."""
+    blk = rj.Block(b=0.25, h=1.0)
+    beta = 1.5 * float(rj.beta_dejong(blk))
+    dt_d = rj.stable_dt(blk, beta, n_sub=EXACT)
+    ref = _e1(blk, beta, dt_d / 32, n_sub=EXACT, duration=1.2)
+    f = np.array([0.5, 1.0, 2.0, 4.0])
+    e = np.array([_e1(blk, beta, dt_d / k, n_sub=EXACT, duration=1.2) for k in f])
+    assert abs(e[1] - ref) < E_LIMIT_TOL, (e, ref)
+    assert _order(dt_d / f, e - ref) > MIN_ORDER, e - ref
+
+
+def test_face_jit_vmap_and_grad(parapet):
+    """vmap = loop, and grad w.r.t. beta against central finite differences."""
+    beta0 = 0.5 * rj.beta_dejong(parapet)
+    dt = rj.stable_dt(parapet, 1.1 * beta0, n_sub=EXACT)
+    base = rj.GroundMotion.sine_cycle(pga=1.0, period=0.5, duration=1.0)
+    amps = jnp.array([-0.8, 1.5]) * G * float(parapet.b / parapet.h)
+
+    def peak(a):
+        gm = rj.GroundMotion(ag=a * jnp.asarray(base.ag), dt=base.dt)
+        return rj.simulate_dem(parapet, gm, beta=beta0, dt=dt, n_sub=EXACT, throw=False).theta_max
+
+    looped = jnp.stack([peak(a) for a in amps])  # each call is jitted inside simulate_dem
+    np.testing.assert_allclose(jax.vmap(peak)(amps), looped, rtol=1e-12)
+
+    def out(beta):
+        r = rj.simulate_dem(
+            parapet, beta=beta, theta0=0.5 * parapet.eta, duration=1.0, dt=dt, n_sub=EXACT
+        )
+        return r.theta[-1]
+
+    g = jax.grad(out)(jnp.asarray(beta0))
+    h = 1e-6 * beta0
+    fd = (out(beta0 + h) - out(beta0 - h)) / (2 * h)
+    assert abs(g - fd) < FD_RTOL * abs(fd), (g, fd)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [(dict(n_sub="exakt"), "n_sub"), (dict(n_sub=EXACT, dashpot="clipped"), "dashpot='closed'")],
+)
+def test_face_bad_input_is_refused(parapet, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        rj.simulate_dem(parapet, duration=1.0, **kwargs)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("b, h", [(0.2, 1.5), (0.3, 2.4)])
+def test_face_facade_rebound_matches_many_sub_contacts(b, h):
+    """Reference: n_sub = 64 sub-contacts per face (computed here), facades at 0.5 beta_Hcrit,
+    gap 0, first rebound peak."""
+    blk = rj.Block(b=b, h=h, E=4.05e9)
+    beta = 0.5 * float(rj.beta_hcrit(blk))
+    p64 = _facade_peaks(
+        blk, beta, dt=rj.stable_dt(blk, beta, mode="one_sided", n_sub=64) / 2, n_sub=64, n=1
+    )
+    p = _facade_peaks(blk, beta, n_sub=EXACT, n=1)
+    np.testing.assert_allclose(p, p64, rtol=FACE_PEAK_RTOL)
+
+
+@pytest.mark.slow
+def test_face_parapet_matches_64_sub_contacts():
+    """Reference: n_sub = 64 (computed here), 0.25 x 3 m at 0.5 beta_DeJong."""
+    blk = rj.Block(b=0.25, h=3.0)
+    beta = 0.5 * float(rj.beta_dejong(blk))
+    e64 = _e1(blk, beta, rj.stable_dt(blk, beta, n_sub=64) / 2, n_sub=64, duration=1.6)
+    e = _e1(blk, beta, rj.stable_dt(blk, beta, n_sub=EXACT), n_sub=EXACT, duration=1.6)
+    assert abs(e - e64) < FACE_LIMIT_TOL, (e, e64)
