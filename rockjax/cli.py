@@ -731,17 +731,25 @@ def _parse_scales(text: str) -> np.ndarray:
 
 
 def _check_writable(flag: str, folder: Path) -> None:
-    """Create ``folder`` if needed and write a probe file in it, so that an output path that
-    cannot be written fails before the computation, not after it."""
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=folder, prefix=".rockjax-probe-"):
-            pass
-    except OSError as err:
+    """Fail now, not after the computation, if ``folder`` (created later if missing) cannot be
+    written: its nearest existing ancestor must be a folder that takes a new file (probed with
+    a temporary file, removed at once; nothing is left behind)."""
+    existing = folder.absolute()
+    while not existing.exists():
+        existing = existing.parent
+    why = None
+    if not existing.is_dir():
+        why = f"{existing} is a file, not a folder"
+    else:
+        try:
+            with tempfile.NamedTemporaryFile(dir=existing, prefix=".rockjax-probe-"):
+                pass
+        except OSError as err:
+            why = err.strerror or str(err)
+    if why is not None:
         raise ValueError(
-            f"{flag}: cannot write into {folder} ({err.strerror or err}); give a path in a "
-            "folder you can write to."
-        ) from None
+            f"{flag}: cannot write into {folder} ({why}); give a path in a folder you can write to."
+        )
 
 
 def _fragility_summary(ds) -> str:
