@@ -15,7 +15,18 @@ def concrete(x):
         return None
 
 
+def check_number(name: str, value, unit: str) -> None:
+    """Refuse text where a number is expected (NumPy would read "0.25" as 0.25 here, and JAX
+    would then fail deep inside a computation)."""
+    if isinstance(value, str | bytes):
+        raise ValueError(
+            f"{name} must be a number in {unit}, not text; got {name}={value!r}. "
+            f"Write {name}={value.strip() if isinstance(value, str) else value!r} without quotes."
+        )
+
+
 def check_positive(name: str, value, unit: str, hint: str = "") -> None:
+    check_number(name, value, unit)
     v = concrete(value)
     if v is None:
         return
@@ -27,6 +38,7 @@ def check_positive(name: str, value, unit: str, hint: str = "") -> None:
 
 
 def check_nonnegative(name: str, value, unit: str, hint: str = "") -> None:
+    check_number(name, value, unit)
     v = concrete(value)
     if v is None:
         return
@@ -52,3 +64,17 @@ def check_scales(scales) -> np.ndarray:
             f"scales must be strictly increasing; got scales={s}. Use np.unique(scales)."
         )
     return s
+
+
+def check_below(name: str, value, limit: float, unit: str, hint: str) -> None:
+    """Refuse a concrete value above ``limit`` (a unit slip, e.g. mm typed for m)."""
+    v = concrete(value)
+    if v is not None and np.any(v > limit):
+        raise ValueError(f"{name}={value} {unit} is above {limit:g} {unit}. {hint}")
+
+
+def check_above(name: str, value, limit: float, unit: str, hint: str) -> None:
+    """Refuse a concrete value below ``limit`` (a unit slip, e.g. MPa typed for Pa)."""
+    v = concrete(value)
+    if v is not None and np.any(v < limit):
+        raise ValueError(f"{name}={value} {unit} is below {limit:g} {unit}. {hint}")

@@ -6,9 +6,17 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ._checks import check_positive, concrete
+from ._checks import check_above, check_below, check_positive, concrete
 from ._types import ScalarLike
 from .constants import G
+
+MAX_DIMENSION = 50.0
+"""Largest block dimension ``b``, ``h`` or ``length`` accepted [m]: above it the input is
+taken for a unit slip (millimetres for metres)."""
+
+MIN_E = 1e7
+"""Smallest Young's modulus accepted [Pa] (10 MPa, below any masonry): below it the input is
+taken for a unit slip (MPa for Pa)."""
 
 
 class Block(eqx.Module):
@@ -47,6 +55,23 @@ class Block(eqx.Module):
         check_positive("length", self.length, "m", "Use the out-of-plane length, e.g. 1.0.")
         check_positive("rho", self.rho, "kg/m^3", "Masonry is about 1800-2400 kg/m^3.")
         check_positive("E", self.E, "Pa", "Give E in pascals, e.g. 1.8e9 for 1800 MPa.")
+        for name in ("b", "h", "length"):
+            check_below(
+                name,
+                getattr(self, name),
+                MAX_DIMENSION,
+                "m",
+                f"rockjax works in metres: did you give millimetres? Divide by 1000 "
+                f"(e.g. {name}=0.25 for 250 mm).",
+            )
+        check_above(
+            "E",
+            self.E,
+            MIN_E,
+            "Pa",
+            "Masonry is about 1e8-1e10 Pa: did you give MPa? Multiply by 1e6 (e.g. E=1.8e9 "
+            "for 1800 MPa).",
+        )
         nu = concrete(self.nu)
         # NumPy, not jnp: inside jit every jnp operation is staged, even on a Python float
         if nu is not None and not (np.all(np.isfinite(nu)) and np.all((nu > -1) & (nu < 0.5))):

@@ -1,3 +1,6 @@
+import subprocess
+import sys
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -37,6 +40,10 @@ def test_block_is_a_pytree_for_vmap_and_grad():
         (dict(b=0.25, h=3.0, E=-1.0), "E must be"),
         (dict(b=0.25, h=3.0, nu=0.6), "nu"),
         (dict(b=0.25, h=3.0, length=float("inf")), "length must be"),
+        # unit slips: a silent wrong result before (E in MPa sank the block 177 m into the base)
+        (dict(b=0.25, h=3.0, E=1800.0), r"E=1800.0 Pa is below 1e\+07 Pa.*did you give MPa"),
+        (dict(b=250.0, h=3.0), "b=250.0 m is above 50 m.*did you give millimetres"),
+        (dict(b=0.25, h=3000.0), "h=3000.0 m is above 50 m"),
     ],
 )
 def test_invalid_geometry_is_refused(kw, match):
@@ -60,3 +67,21 @@ def test_block_can_be_built_inside_jit():
     """A Block made from Python floats inside a jitted function (its checks run in NumPy)."""
     eta = jax.jit(lambda h: rj.Block(b=0.25, h=3.0, nu=0.2).eta * h)(1.0)
     np.testing.assert_allclose(eta, np.arctan(0.25 / 3.0), rtol=1e-14)
+
+
+def test_text_for_a_number_is_refused_by_name():
+    """``Block(b="0.25")``: NumPy would read the text as a number and JAX fail deep inside.
+    Run without the test suite's runtime type checks (which would refuse it first), as a user
+    runs it."""
+    code = (
+        "import rockjax as rj\n"
+        "for kw in ({'b': '0.25', 'h': 3.0}, {'b': 0.25, 'h': 3.0, 'E': '1.8e9'}):\n"
+        "    try:\n"
+        "        rj.Block(**kw)\n"
+        "    except ValueError as err:\n"
+        "        print(err)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "b must be a number in m, not text; got b='0.25'" in out.stdout
+    assert "E must be a number in Pa, not text" in out.stdout
