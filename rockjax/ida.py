@@ -312,12 +312,7 @@ def _plan(
     tail = float(tail)
     groups, pga, t_end = _group_records(records, tail, t_end)
     pgv = np.array([float(r.pgv) for r in records])
-    if im_spec.kind == "pga":
-        im_record = pga
-    elif im_spec.kind == "pgv":
-        im_record = pgv
-    else:
-        im_record = np.array([float(intensity(r, im_spec.name)) for r in records])
+    im_record = np.array([float(intensity(r, im_spec.name)) for r in records])
     # Both simulators split each record step into ceil(dt_rec / dt_bound) equal steps.
     dt_step = np.zeros(len(records))
     chunks = []
@@ -549,7 +544,7 @@ def _group_records(records, tail: float, t_end: float | None = None):
         groups.append(
             _Group(idx, float(d), jnp.asarray(ag), None if ag_v is None else jnp.asarray(ag_v))
         )
-    pga = np.array([float(np.max(np.abs(np.asarray(r.ag, float)))) for r in records])
+    pga = np.array([float(r.pga) for r in records])
     return groups, pga, float(t_end)
 
 
