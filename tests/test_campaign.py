@@ -166,7 +166,7 @@ def finished(tmp_path_factory):
     ]
     case = rj.campaign.Case("c", rj.Block(b=0.25, h=3.0), "s", model="housner")
     out = tmp_path_factory.mktemp("finished")
-    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=":0") as cluster:
         with Client(cluster) as client:
             result = rj.campaign.run(
                 [case],
@@ -183,7 +183,7 @@ def finished(tmp_path_factory):
 def _rerun(case, records, out):
     from dask.distributed import Client, LocalCluster
 
-    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=":0") as cluster:
         with Client(cluster) as client:
             return rj.campaign.run(
                 [case],
