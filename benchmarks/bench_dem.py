@@ -195,14 +195,15 @@ def bench_contact(repeats: int) -> list[dict]:
     for name in BLOCKS:
         block, beta = block_and_beta(name)
         for n_sub in (2, 12, "exact"):
-            dt = rj.stable_dt(block, beta, n_sub=n_sub)
+            joint = rj.Joint(n_sub=n_sub)
+            dt = rj.stable_dt(block, beta, joint=joint)
 
-            def one(scale, dt=dt, n_sub=n_sub):
+            def one(scale, dt=dt, joint=joint):
                 motion = rj.GroundMotion(ag=scale * ag, dt=RECORD_DT)
-                return rj.simulate_dem(block, motion, beta=beta, dt=dt, n_sub=n_sub).theta_max
+                return rj.simulate_dem(block, motion, beta=beta, dt=dt, joint=joint).theta_max
 
             f = jax.jit(one)
-            r = rj.simulate_dem(block, ricker(0.05), beta=beta, dt=dt, n_sub=n_sub)
+            r = rj.simulate_dem(block, ricker(0.05), beta=beta, dt=dt, joint=joint)
             steps = rec.n * round(RECORD_DT / float(r.extras["dt"]))
             med, best = timed(lambda: f(1.0), repeats)
             rows.append({"block": name, "n_sub": n_sub, "steps": steps, "med": med, "min": best})

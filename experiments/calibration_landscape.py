@@ -32,7 +32,9 @@ ONSETS = ("sub_step", "step")
 
 
 def make(block, onset, beta_max):
-    problem = cal.problem(block, E, target="e", mode="two_sided", beta_max=beta_max, onset=onset)
+    problem = cal.problem(
+        block, E, target="e", mode="two_sided", beta_max=beta_max, joint=rj.Joint(onset=onset)
+    )
     housner = cal.housner_reference(problem)[0]
     t_last = cal.last_compared_time(housner, problem)
     return problem, housner, t_last
@@ -91,7 +93,7 @@ def main(argv=None):
             for i in range(x.size):
                 rows.append(
                     dict(
-                        onset=onset,
+                        joint=rj.Joint(onset=onset),
                         grid=grid_name,
                         beta_over_bdj=x[i],
                         beta_s=x[i] * bdj,

@@ -45,15 +45,15 @@ def _save_dt(dt):
     return dt * max(1, round(SAMPLE / dt))
 
 
-def parapet_e1(blk, beta, dt, n_sub=2):
+def parapet_e1(blk, beta, dt, joint=rj.Joint()):
     eta = float(blk.eta)
     r = rj.simulate_dem(
-        blk, beta=beta, theta0=0.5 * eta, duration=2.5, dt=dt, save_dt=_save_dt(dt), n_sub=n_sub
+        blk, beta=beta, theta0=0.5 * eta, duration=2.5, dt=dt, save_dt=_save_dt(dt), joint=joint
     )
     return float(r.e_exp(1)[0])
 
 
-def facade_peaks(blk, beta, dt, n_sub=2, duration=3.0):
+def facade_peaks(blk, beta, dt, joint=rj.Joint(), duration=3.0):
     """First N_PEAKS rebound peaks / eta (NaN where the run has no such bounce)."""
     eta = float(blk.eta)
     r = rj.simulate_dem(
@@ -65,7 +65,7 @@ def facade_peaks(blk, beta, dt, n_sub=2, duration=3.0):
         duration=duration,
         dt=dt,
         save_dt=_save_dt(dt),
-        n_sub=n_sub,
+        joint=joint,
     )
     pk = metrics.peaks(r.t, r.theta, eta, N_PEAKS, mode="one_sided")
     amp = np.asarray(pk.amplitude)[1:] / eta
@@ -145,20 +145,26 @@ def study_nsub():
             beta = frac * float(rj.beta_hcrit(blk))
         mode = "two_sided" if kind == "parapet" else "one_sided"
         for n in N_SUBS:
-            dt_d = rj.stable_dt(blk, beta, mode=mode, n_sub=n)
+            dt_d = rj.stable_dt(blk, beta, mode=mode, joint=rj.Joint(n_sub=n))
             vals = []
             for f in (1, 4):
                 if kind == "parapet":
-                    vals.append(parapet_e1(blk, beta, dt_d / f, n_sub=n))
+                    vals.append(parapet_e1(blk, beta, dt_d / f, joint=rj.Joint(n_sub=n)))
                 else:
-                    vals.append(float(facade_peaks(blk, beta, dt_d / f, n_sub=n, duration=1.8)[0]))
+                    vals.append(
+                        float(
+                            facade_peaks(
+                                blk, beta, dt_d / f, joint=rj.Joint(n_sub=n), duration=1.8
+                            )[0]
+                        )
+                    )
             rows.append(
                 dict(
                     kind=kind,
                     b=b,
                     h=h,
                     beta_frac=frac,
-                    n_sub=n,
+                    joint=rj.Joint(n_sub=n),
                     value_dt_d=vals[0],
                     value_dt_d4=vals[1],
                 )

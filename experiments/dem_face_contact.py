@@ -1,4 +1,4 @@
-"""The integrated face contact law (``n_sub="exact"``) against many sub-contacts, and its
+"""The integrated face contact law (``rj.Joint()``, ``n_sub="exact"``) against many sub-contacts, and its
 convergence in the time step.
 
 1. ``limit``: first-impact e_exp,1 (Eq. 6) of parapets (two-sided free rocking from 0.5 eta)
@@ -52,7 +52,8 @@ def _beta(kind, blk, frac):
 def value(kind, blk, beta, n_sub, f=2.0, duration=None):
     """e_exp,1 (parapet) or the first rebound peak / eta (facade) at dt_d(n_sub) / f."""
     mode = "two_sided" if kind == "parapet" else "one_sided"
-    dt = rj.stable_dt(blk, beta, mode=mode, n_sub=n_sub) / f
+    joint = rj.Joint(n_sub=n_sub)
+    dt = rj.stable_dt(blk, beta, mode=mode, joint=joint) / f
     r = rj.simulate_dem(
         blk,
         beta=beta,
@@ -61,7 +62,7 @@ def value(kind, blk, beta, n_sub, f=2.0, duration=None):
         duration=duration or (2.5 if kind == "parapet" else 1.8),
         dt=dt,
         save_dt=_save_dt(dt),
-        n_sub=n_sub,
+        joint=joint,
     )
     if kind == "parapet":
         return float(r.e_exp(1)[0])
@@ -111,7 +112,7 @@ def study_dt():
             b=b,
             h=h,
             beta_frac=frac,
-            dt_default=rj.stable_dt(blk, beta, mode=mode, n_sub="exact"),
+            dt_default=rj.stable_dt(blk, beta, mode=mode, joint=rj.Joint(n_sub="exact")),
         )
         row.update({f"dt/{f:g}": float(x) for f, x in zip(REFINE, v)})
         row.update(err_default=float(err[1]), order=float(order))

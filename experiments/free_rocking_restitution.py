@@ -38,12 +38,14 @@ def main(argv=None):
         for dashpot in ("closed", "clipped"):
             for frac in FRACTIONS:
                 beta = frac * beta_dj
-                r = rj.simulate_dem(blk, beta=beta, theta0=0.5 * eta, duration=6.0, dashpot=dashpot)
+                r = rj.simulate_dem(
+                    blk, beta=beta, theta0=0.5 * eta, duration=6.0, joint=rj.Joint(dashpot=dashpot)
+                )
                 e1, e2, e3 = r.e_exp(3)
                 rows.append(
                     dict(
                         block=name,
-                        dashpot=dashpot,
+                        joint=rj.Joint(dashpot=dashpot),
                         beta_over_beta_dejong=frac,
                         beta_s=beta,
                         e_exp_1=e1,

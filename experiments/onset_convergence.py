@@ -37,10 +37,17 @@ def main(argv=None):
         for onset in ("sub_step", "step"):
             for f in REFINE:
                 r = rj.simulate_dem(
-                    blk, beta=beta, theta0=0.5 * eta, duration=10.0, dt=dt0 / f, onset=onset
+                    blk,
+                    beta=beta,
+                    theta0=0.5 * eta,
+                    duration=10.0,
+                    dt=dt0 / f,
+                    joint=rj.Joint(onset=onset),
                 )
                 e = float(np.exp(metrics.log_e_fit(metrics.peaks(r.t, r.theta, eta, 8))))
-                rows.append(dict(beta_over_beta_dejong=frac, onset=onset, dt_s=dt0 / f, e=e))
+                rows.append(
+                    dict(beta_over_beta_dejong=frac, joint=rj.Joint(onset=onset), dt_s=dt0 / f, e=e)
+                )
                 print(f"beta/beta_DJ={frac:.1f} onset={onset:8s} dt=dt0/{f}  e={e:.6f}")
     with open(out / "onset_convergence.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))

@@ -48,6 +48,7 @@ from .calibration import Calibration as Calibration  # noqa: E402
 from .calibration import fit_beta as fit_beta  # noqa: E402
 from .calibration import fit_e as fit_e  # noqa: E402
 from .calibration import fit_history as fit_history  # noqa: E402
+from .contact import Joint as Joint  # noqa: E402
 from .dem import simulate_dem as simulate_dem  # noqa: E402
 from .dem import stable_dt as stable_dt  # noqa: E402
 from .fragility import Fragility as Fragility  # noqa: E402
@@ -78,6 +79,7 @@ __all__ = [
     "Calibration",
     "Fragility",
     "GroundMotion",
+    "Joint",
     "Response",
     "beta_dejong",
     "beta_hcrit",

@@ -44,6 +44,7 @@ from . import __version__, jsonio, plot
 from .block import Block
 from .calibration import fit_beta
 from .constants import G
+from .contact import Joint
 from .dem import simulate_dem, stable_dt
 from .housner import simulate_housner
 from .ida import ida
@@ -207,7 +208,7 @@ def _demo(args: argparse.Namespace) -> int:
             duration=duration,
             save_dt=DT_OUT,
             dt=dt_dem,
-            dashpot=dashpot,
+            joint=Joint(dashpot=dashpot),
         )
 
     runs_a = {

@@ -1,16 +1,18 @@
 """The DEM model: a rigid block (3 DOF) on a rigid base with penalty sub-contacts, stepped by
 explicit central differences inside ``jax.lax.scan``.
 
-Model (paper Section 2): sub-contact points on the base face (``n_sub``, default 2 at the
-corners, trapezoidal tributary areas), normal stiffness ``j_kn = E/h`` and shear stiffness
-``j_ks = j_kn / (2 (1 + nu))`` per unit area, Mohr-Coulomb with zero tension and cohesion,
-stiffness-proportional Rayleigh damping ``beta`` as a dashpot ``c = beta k`` on each closed
-sub-contact (see :mod:`rockjax.contact` for the two damping conventions). A facade
-(``mode="one_sided"``) also has a rigid return wall at its -x face, a distance ``gap`` behind
-it, meeting sub-contacts on the block's back face (same joint stiffness per unit area).
-``n_sub="exact"`` replaces the sub-contacts of each face by their ``n_sub -> infinity`` limit,
-the same law integrated over the face (a continuous Winkler joint; one resultant shear spring
-per face; see :func:`_face` and docs/theory.md, "Integrated face contact").
+Model (paper Section 2): the joint under the base face (:class:`rockjax.Joint`), by default
+the contact law integrated over the face (``Joint()``, the ``n_sub -> infinity`` limit of the
+sub-contacts: a continuous Winkler joint with one resultant shear spring per face; see
+:func:`_face` and docs/theory.md, "Integrated face contact"), or ``n_sub`` >= 2 sub-contact
+points (trapezoidal tributary areas; ``Joint(n_sub=2)`` puts them at the corners, the paper's
+model); normal stiffness ``j_kn = E/h`` and shear stiffness ``j_ks = j_kn / (2 (1 + nu))`` per
+unit area, Mohr-Coulomb with zero tension and cohesion, stiffness-proportional Rayleigh
+damping ``beta`` as a dashpot ``c = beta k`` on the closed joint (see :mod:`rockjax.contact`
+for the two damping conventions). A facade (``mode="one_sided"``) also has a rigid return
+wall at its -x face, a distance ``gap`` behind it, meeting the block's back face through the
+same joint. A few sub-contacts differ from the converged joint by 1e-2 in the restitution of
+a parapet and by a factor of two in a facade's rebound (docs/verification.md).
 
 Integration: central differences with centred dashpots (the dashpot force uses the velocity
 at the step, the mean of the two half-step velocities, so the scheme is second-order accurate;
@@ -39,23 +41,25 @@ import numpy as np
 from ._checks import check_choice, check_nonnegative, concrete
 from .block import Block
 from .constants import G
-from .contact import DASHPOTS, ONSETS, normal_force, shear_force
+from .contact import Joint, normal_force, shear_force
 from .motion import GroundMotion
 from .response import STATUS_MESSAGES, STATUS_NONFINITE, STATUS_OK, STATUS_UNSTABLE, Response
 
 MODES = ("two_sided", "one_sided")
-FACE = "exact"
-"""``n_sub=FACE``: the integrated face contact law, the ``n_sub -> infinity`` limit of the
-sub-contacts (docs/theory.md, "Integrated face contact")."""
 
 DT_SAFETY = 0.5
 """Largest fraction of the explicit stability limit a default step may take."""
 
-DT_ACCURACY = {"two_sided": 0.5, "one_sided": 0.35}
-"""Default ``accuracy`` per mode: the step is ``accuracy / (omega_max (1 + zeta))`` [s]. With
-these the first-impact restitution of parapets with h/b 4-24 at beta up to 1.5 beta_DeJong is
-within 1e-3 of its dt -> 0 limit, and the first rebound peak of facades within 2 % of a 16x
-finer step (docs/verification.md, "DEM time step: convergence")."""
+DT_ACCURACY = {"two_sided": 1.0, "one_sided": 0.7}
+"""Default ``accuracy`` per mode for the integrated face law (``n_sub="exact"``): the step is
+``accuracy / (omega_max (1 + zeta))`` [s]. With these the first-impact restitution of parapets
+with h/b 4-24 at beta up to 1.5 beta_DeJong is within 1e-3 of its dt -> 0 limit, and the
+rebound peaks of facades within 2 % of a 16x finer step (docs/verification.md, "DEM time step:
+convergence")."""
+
+DT_ACCURACY_SUB = {"two_sided": 0.5, "one_sided": 0.35}
+"""Default ``accuracy`` per mode with integer ``n_sub`` (point sub-contacts, whose forces jump
+as each point closes: they need half the face law's step for the same accuracy)."""
 
 DEFAULT_SAVE_DT = 0.002
 """Output interval [s] for free rocking (no record)."""
@@ -145,16 +149,12 @@ def dem_params(
     *,
     mode: str = "two_sided",
     gap=0.0,
-    n_sub: int | str = 2,
+    joint: Joint = Joint(),
     phi_deg=None,
-    dashpot: str = "closed",
-    onset: str = "sub_step",
 ) -> DemParams:
     """Collect the block, interface and damping into a :class:`DemParams` (traceable)."""
     check_choice("mode", mode, MODES)
-    check_choice("dashpot", dashpot, DASHPOTS)
-    check_choice("onset", onset, ONSETS)
-    _check_n_sub(n_sub, dashpot)
+    _check_joint(joint)
     check_nonnegative("beta", beta, "s", "beta is the stiffness-proportional Rayleigh coefficient.")
     check_nonnegative("gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.")
     if phi_deg is None:
@@ -162,34 +162,21 @@ def dem_params(
     phi = concrete(phi_deg)
     if phi is not None and not (0.0 < phi < 90.0):
         raise ValueError(f"phi_deg (friction angle, degrees) must be in (0, 90); got {phi_deg}.")
-    return _build_params(
-        block, beta, gap, phi_deg, mode=mode, n_sub=n_sub, dashpot=dashpot, onset=onset
-    )
+    return _build_params(block, beta, gap, phi_deg, mode=mode, joint=joint)
 
 
-def _check_n_sub(n_sub, dashpot):
-    if n_sub == FACE:
-        if dashpot != "closed":
-            raise ValueError(
-                f"dashpot={dashpot!r} is not available with n_sub={FACE!r} (the integrated face "
-                "law): the clipped dashpot's no-tension cut runs through the interior of the "
-                "closed zone. Use dashpot='closed', or integer n_sub (e.g. 16) for 'clipped'."
-            )
-        return
-    if isinstance(n_sub, bool) or not isinstance(n_sub, int) or n_sub < 2:
-        raise ValueError(
-            f"n_sub (sub-contacts per face) must be an integer >= 2 or {FACE!r} (the "
-            f"integrated face law, the n_sub -> infinity limit); got n_sub={n_sub!r}."
+def _check_joint(joint):
+    if not isinstance(joint, Joint):
+        raise TypeError(
+            f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
         )
 
 
 # Compiled: one call instead of ~40 eager ops (~1.5 ms a call; docs/benchmarks.md).
-@jax.jit(static_argnames=("mode", "n_sub", "dashpot", "onset"))
-def _build_params(
-    block: Block, beta, gap, phi_deg, *, mode: str, n_sub: int | str, dashpot: str, onset: str
-):
+@jax.jit(static_argnames=("mode", "joint"))
+def _build_params(block: Block, beta, gap, phi_deg, *, mode: str, joint: Joint):
     b, h = jnp.asarray(block.b, float), jnp.asarray(block.h, float)
-    face = n_sub == FACE
+    face, n_sub = joint.face, joint.n_sub
     if face:
         # the two-point Gauss rule of the face: its springs give the all-closed stiffness
         # matrix of the continuous joint exactly (omega_max, the settlement at rest)
@@ -224,8 +211,8 @@ def _build_params(
         ks_wall=block.j_ks * area_wall,
         kn_line=jnp.asarray(block.j_kn * block.length, float),
         ks_line=jnp.asarray(block.j_ks * block.length, float),
-        dashpot=dashpot,
-        onset=onset,
+        dashpot=joint.dashpot,
+        onset=joint.onset,
         face=face,
     )
 
@@ -292,9 +279,8 @@ def stable_dt(
     beta=0.0,
     *,
     mode: str = "two_sided",
-    n_sub: int | str = 2,
     gap=0.0,
-    dashpot: str = "closed",
+    joint: Joint = Joint(),
     accuracy: float | None = None,
 ) -> float:
     """The default DEM time step [s]: stable, and chosen for accuracy (before rounding to
@@ -310,27 +296,29 @@ def stable_dt(
         block: The block.
         beta: Stiffness-proportional damping coefficient [s], Eq. (1).
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
-        n_sub: Sub-contacts per face, or ``"exact"`` (the integrated face law).
         gap: Facade gap [m] (does not change the step).
-        dashpot: Damping convention (does not change the step).
-        accuracy: ``omega_max dt (1 + zeta)`` [-]; default ``DT_ACCURACY[mode]`` (0.5 for
-            parapets, 0.35 for facades: first-impact ``e`` within 1e-3 of its converged value,
-            facade rebound peaks within 2 %; docs/verification.md). Smaller is finer; values
+        joint: The contact joint (:class:`rockjax.Joint`; default the integrated face law).
+        accuracy: ``omega_max dt (1 + zeta)`` [-]; default ``DT_ACCURACY[mode]`` (1.0 for
+            parapets, 0.7 for facades; half of that with integer ``n_sub``: first-impact ``e``
+            within 1e-3 of its converged value, facade rebound peaks within 2 %;
+            docs/verification.md). Smaller is finer; values
             above ``2 DT_SAFETY / (1 + zeta)`` give the stability-based step.
     """
-    accuracy = _check_accuracy(accuracy, mode)
-    params = dem_params(block, beta, mode=mode, n_sub=n_sub, gap=gap, dashpot=dashpot)
+    params = dem_params(block, beta, mode=mode, gap=gap, joint=joint)
+    accuracy = _check_accuracy(accuracy, mode, joint)
     return float(default_step(params, accuracy))
 
 
-def _check_accuracy(accuracy, mode):
+def _check_accuracy(accuracy, mode, joint):
+    table = DT_ACCURACY if joint.face else DT_ACCURACY_SUB
+    default = table.get(mode, table["two_sided"])
     if accuracy is None:
-        return DT_ACCURACY.get(mode, DT_ACCURACY["two_sided"])
+        return default
     if not (isinstance(accuracy, (int, float)) and np.isfinite(accuracy) and accuracy > 0):
         raise ValueError(
             f"accuracy (omega_max dt (1 + zeta), dimensionless) must be a positive float; got "
-            f"accuracy={accuracy!r}. Leave accuracy=None for the default "
-            f"({DT_ACCURACY[mode] if mode in DT_ACCURACY else DT_ACCURACY}); smaller is finer."
+            f"accuracy={accuracy!r}. Leave accuracy=None for the default ({default}); smaller "
+            "is finer."
         )
     return float(accuracy)
 
@@ -436,6 +424,16 @@ def _closed_interval(lo, hi, d_lo, d_hi):
     return ca, jnp.maximum(cb, ca)
 
 
+def _insert_cut(cuts, z):
+    """``cuts`` (sorted, ends fixed) with the point ``z`` (in [lo, hi]) inserted in order."""
+    inner = list(cuts[1:-1])
+    out = []
+    for x in inner:  # one compare-exchange pass: carry the larger value on
+        out.append(jnp.minimum(x, z))
+        z = jnp.maximum(x, z)
+    return [cuts[0], *out, z, cuts[-1]]
+
+
 def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist):
     """Integrated contact of one face on a continuous Winkler joint (normal and shear
     stiffness per unit length ``kn_line``, ``ks_line``).
@@ -492,6 +490,12 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist):
         cuts = [lo, _crossing(lo, hi, d_lo, d_hi), hi]
         dt_onset = None
     kn, ks, beta = params.kn_line, params.ks_line, params.beta
+    clipped = params.dashpot == "clipped"
+    if clipped:
+        # the clipped law's kink: where the closed part's total force k (delta + beta delta_dot),
+        # linear in t, changes sign; the pieces either side are then smooth
+        q_lo, q_hi = d_lo + beta * ends[0][3], d_hi + beta * ends[1][3]
+        cuts = _insert_cut(cuts, _crossing(lo, hi, q_lo, q_hi))
     fn = fn_el = mom_n = 0.0
     n0 = n1 = n2 = 0.0  # integrals of frac, frac * arm_n, frac * arm_n^2
     s0 = s1 = s2 = 0.0  # integrals of frac, frac * arm_s, frac * arm_s^2
@@ -505,10 +509,11 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist):
             arm_n, arm_s = (ry, -rx) if wall else (-rx, ry)
             wf = half * frac
             fn, fn_el, mom_n = fn + half * f, fn_el + half * f_el, mom_n + half * f * arm_n
-            n0, n1, n2 = n0 + wf, n1 + wf * arm_n, n2 + wf * arm_n * arm_n
-            s1, s2 = s1 + wf * arm_s, s2 + wf * arm_s * arm_s
+            # a clipped dashpot acts only where the total force is compressive
+            wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
+            n0, n1, n2 = n0 + wn, n1 + wn * arm_n, n2 + wn * arm_n * arm_n
+            s0, s1, s2 = s0 + wf, s1 + wf * arm_s, s2 + wf * arm_s * arm_s
             v0, v1 = v0 + wf * slip, v1 + wf * slip * arm_s
-    s0 = n0
     # shear: one spring per face; the previous step's penetration is delta - dt delta_dot
     # (the lagged velocity is the one that took the block from there to here)
     (f_s,) = hist
@@ -688,7 +693,9 @@ def initial_state(params: DemParams, theta0=0.0) -> DemState:
         # whole face (a trapezoid) when the tilt is below sink / b
         w_line = params.m * G / params.kn_line
         tilt = jnp.abs(jnp.sin(theta0))
-        tri = jnp.sqrt(2.0 * w_line * tilt)
+        # (the square root's derivative is infinite at zero tilt: keep it out of the graph)
+        tri = jnp.sqrt(2.0 * w_line * jnp.where(tilt > 0.0, tilt, 1.0))
+        tri = jnp.where(tilt > 0.0, tri, 0.0)
         trap = w_line / params.b + 0.5 * tilt * params.b
         sink = jnp.where(tri < tilt * params.b, tri, trap)
     c, s = jnp.cos(theta0), jnp.sin(theta0)
@@ -808,10 +815,8 @@ def simulate_dem(
     duration: float | None = None,
     dt: float | None = None,
     accuracy: float | None = None,
-    n_sub: int | str = 2,
+    joint: Joint = Joint(),
     phi_deg=None,
-    dashpot: str = "closed",
-    onset: str = "sub_step",
     save_dt: float | None = None,
     save: tuple[str, ...] = (),
     beta_max=None,
@@ -832,15 +837,15 @@ def simulate_dem(
             The step used is the largest divisor of the output step not above ``dt``. A step
             above the stability limit is refused.
         accuracy: Accuracy of the default step, ``omega_max dt (1 + zeta)`` [-] (ignored when
-            ``dt`` is given); default ``DT_ACCURACY[mode]``, which puts the first-impact ``e``
-            within 1e-3 of its converged value (docs/verification.md). Smaller is finer.
-        n_sub: Sub-contact points per face (>= 2; 2 puts them at the corners), or ``"exact"``:
-            the contact law integrated in closed form over each face, the ``n_sub -> infinity``
-            limit (docs/theory.md, "Integrated face contact"; ``dashpot="closed"`` only).
+            ``dt`` is given); default ``DT_ACCURACY[mode]`` (``DT_ACCURACY_SUB`` with integer
+            ``n_sub``), which puts the first-impact ``e`` within 1e-3 of its converged value
+            (docs/verification.md). Smaller is finer.
+        joint: The contact joint, :class:`rockjax.Joint`: by default the contact law
+            integrated in closed form over each face (the ``n_sub -> infinity`` limit of the
+            sub-contacts; docs/theory.md, "Integrated face contact"), the closed dashpot and
+            contact onsets located inside the step (responses smooth in ``beta``);
+            ``rj.Joint(n_sub=2)`` is the paper's two corner contacts.
         phi_deg: Friction angle [deg]; default 50 (parapets) or 30 (facades), as in the paper.
-        dashpot: ``"closed"`` (default) or ``"clipped"``; see :mod:`rockjax.contact`.
-        onset: ``"sub_step"`` (default: contact onsets located inside the step, so responses
-            are smooth in ``beta``) or ``"step"`` (UDEC-style); see :mod:`rockjax.contact`.
         save_dt: Output interval for free rocking [s] (default 0.002); with a record, its ``dt``.
         save: Extra outputs: ``"energy"`` (total energy [J]), ``"forces"`` (base normal forces [N]).
         beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
@@ -860,15 +865,13 @@ def simulate_dem(
         beta,
         mode=mode,
         gap=gap,
-        n_sub=n_sub,
+        joint=joint,
         phi_deg=phi_deg,
-        dashpot=dashpot,
-        onset=onset,
     )
     _check_theta0(theta0, block, mode)
     ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
-    accuracy = _check_accuracy(accuracy, mode)
-    limit, dt_default = _concrete_steps(params, block, beta_max, n_sub, mode, dashpot, dt, accuracy)
+    accuracy = _check_accuracy(accuracy, mode, joint)
+    limit, dt_default = _concrete_steps(params, block, beta_max, joint, mode, dt, accuracy)
     if dt is None:
         dt_target = dt_default
     else:
@@ -912,13 +915,13 @@ def _check_theta0(theta0, block, mode):
         )
 
 
-def _concrete_steps(params, block, beta_max, n_sub, mode, dashpot, dt, accuracy):
+def _concrete_steps(params, block, beta_max, joint, mode, dt, accuracy):
     """``(stability limit, default step)`` [s] as floats, or ``(None, None)`` when they cannot
     be known outside the trace."""
     if beta_max is not None:
         try:  # rebuilt from the block: params may be tracers when only beta is traced
             with jax.ensure_compile_time_eval():
-                p_max = dem_params(block, beta_max, mode=mode, n_sub=n_sub, dashpot=dashpot)
+                p_max = dem_params(block, beta_max, mode=mode, joint=joint)
                 return tuple(map(float, _steps_jit(p_max, accuracy)))
         except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
             raise ValueError(

@@ -80,9 +80,22 @@ def test_seeded_default_fit_and_range(grid_fit):
     assert abs(fit.beta - grid_fit.beta) / grid_fit.beta < 0.02
     lo, hi = fit.e_range
     # the paper's intercept question: at beta = 0 this DEM is nearly elastic (e ~ 1), not e_H
-    assert hi > 0.999 and lo < 0.85
-    # the paper's weighted-mean history error is reported; it is small at the fit
-    assert 0.0 < fit.history_error < 0.3
+    # (0.990); beta_max = 2 beta_DeJong reaches far below the target (measured 0.851)
+    assert hi > 0.999 and lo < E_TARGET - 0.05
+    # the paper's weighted-mean history error is reported
+    assert np.isfinite(fit.history_error) and fit.history_error > 0.0
+
+
+def test_history_error_small_for_corner_contacts_only(grid_fit):
+    """The paper's history error (Eq. 8) at a fitted beta is small for its model, two corner
+    contacts (measured 0.155), which pivot on the corner as Housner's block does; on the
+    converged joint (the default) the same bounce energies come with a longer rocking period
+    (the contact triangle's resultant lies inside the corner; docs/verification.md), so the
+    histories drift out of phase (measured 0.974)."""
+    corners = rj.Joint(n_sub=2)
+    fit = rj.fit_beta(BLOCK, e=E_TARGET, joint=corners)
+    assert fit.converged and fit.history_error < 0.3
+    assert grid_fit.history_error > 0.5
 
 
 def test_unreachable_target_names_the_range():
@@ -90,9 +103,10 @@ def test_unreachable_target_names_the_range():
         rj.fit_beta(BLOCK, e=0.5)
     with pytest.raises(ValueError, match="not reachable"):
         rj.fit_beta(BLOCK, e=1.0)
-    # the clipped dashpot saturates near 0.97 (docs/verification.md, Calibration)
+    # with corner contacts the clipped dashpot saturates near 0.96 (docs/verification.md,
+    # Calibration); on the converged joint it reaches 0.907 at 2 beta_DeJong
     with pytest.raises(ValueError, match=r"spans e = 0\.9[67]\d+ .*clipped.*saturates"):
-        rj.fit_beta(BLOCK, e=0.95, dashpot="clipped")
+        rj.fit_beta(BLOCK, e=0.95, joint=rj.Joint(n_sub=2, dashpot="clipped"))
 
 
 def test_bad_input():
@@ -113,7 +127,6 @@ def test_fit_e_round_trip(grid_fit):
     assert abs(fe.e - E_TARGET) < calibration.E_TOL
     assert abs(fe.e - fe.e_effective) < calibration.E_TOL
     assert fe.converged and fe.reason == ""
-    assert fe.history_error < 0.3
 
 
 def test_e_effective_is_smooth_and_monotone():

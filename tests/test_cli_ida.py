@@ -11,7 +11,7 @@ from helpers import run_cli
 
 import rockjax as rj
 
-SCALES = "0.1,0.5,3"  # 0.1: the block does not even uplift; 3: both pulses overturn it
+SCALES = "0.1,0.5,5"  # 0.1: the block does not even uplift; 5: both pulses overturn it
 
 
 _run = run_cli
@@ -48,7 +48,7 @@ def test_dem_writes_netcdf_and_summary(dem_run):
         ds = ds.load()
     assert ds.sizes == {"record": 2, "scale": 3}
     assert list(ds["record"].values) == ["ricker", "sine"]
-    np.testing.assert_allclose(ds["scale"], [0.1, 0.5, 3.0])
+    np.testing.assert_allclose(ds["scale"], [0.1, 0.5, 5.0])
     block = rj.Block(b=0.25, h=3.0)
     assert ds.attrs["model"] == "dem" and ds.attrs["mode"] == "two_sided"
     assert ds.attrs["beta"] == pytest.approx(float(rj.beta_dejong(block)))  # the default

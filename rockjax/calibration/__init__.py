@@ -11,7 +11,7 @@ differentiable loss minimised with L-BFGS (``optax.lbfgs``, backtracking line se
    It is insensitive to phase, and equals ``(log e_DEM - log e)^2`` for a DEM with a constant
    restitution. The paper's pointwise weighted-mean history error
    (:func:`rockjax.metrics.history_error`) is reported beside it.
-3. **Smoothness**: the DEM locates contact onsets inside the step (``onset="sub_step"``,
+3. **Smoothness**: the DEM locates contact onsets inside the step (``Joint(onset="sub_step")``,
    :mod:`rockjax.contact`), so the loss is continuous in ``beta``; with onsets on the step grid
    it jumps ~1e-4 at ~1e-5 ``beta_DeJong`` intervals and the local derivative misses the trend.
 4. **Scaling and bounds**: two DEM runs at ``beta = 0`` and ``beta_max`` (vmapped) give the

@@ -14,8 +14,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import metrics
-from .._checks import check_choice
+from .._checks import check_choice, check_nonnegative, check_scalar
 from ..block import Block
+from ..contact import Joint
 from ..dem import simulate_dem
 from ..housner import simulate_housner
 from ..relations import e_isr
@@ -57,6 +58,24 @@ GAP_TOL = 1e-4
 exceeds this is finished by false position on the bracketed gap."""
 
 
+def _check_count(name: str, value, least: int, default: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < least:
+        raise ValueError(
+            f"{name} must be an int >= {least}; got {name}={value!r}. The default is {default}."
+        )
+
+
+def _check_stopping(rtol, max_iter, rtol_default: float, max_iter_default: int) -> None:
+    """``rtol`` in (0, 1) and ``max_iter >= 1``, checked before any run."""
+    check_scalar("rtol", rtol, "[-]", f"The default is rtol={rtol_default:g}.")
+    if not (np.isfinite(float(rtol)) and 0.0 < float(rtol) < 1.0):
+        raise ValueError(
+            f"rtol (relative step tolerance) must lie in (0, 1); got rtol={rtol!r}. The "
+            f"default is rtol={rtol_default:g}."
+        )
+    _check_count("max_iter", max_iter, 1, max_iter_default)
+
+
 def fit_beta(
     block: Block,
     e=None,
@@ -72,9 +91,8 @@ def fit_beta(
     n_grid: int = 256,
     rtol: float = 1e-4,
     max_iter: int = 40,
-    dashpot: str = "closed",
+    joint: Joint | None = None,
     gap: float = 0.0,
-    onset: str = "sub_step",
 ) -> Calibration:
     """Fit the DEM's ``beta`` [s] so that its free rocking matches Housner's with restitution ``e``.
 
@@ -95,7 +113,9 @@ def fit_beta(
         method: ``"lbfgs"`` (gradient, default), ``"grid"`` (``n_grid`` points) or ``"root"``.
         rtol: Stop when an iteration moves ``beta`` by less than ``rtol`` relative.
         max_iter: Iteration cap (L-BFGS or root find).
-        dashpot, gap, onset: DEM options (see :func:`rockjax.simulate_dem`).
+        joint: The DEM's contact joint (:class:`rockjax.Joint`; default ``rj.Joint()``, the
+            integrated face law).
+        gap: Facade gap [m].
 
     Returns:
         A :class:`Calibration` (``.beta``, ``.e_effective``, ``.loss``, ``.history``,
@@ -112,6 +132,11 @@ def fit_beta(
             All are raised before the optimisation.
     """
     check_choice("method", method, METHODS)
+    _check_stopping(rtol, max_iter, 1e-4, 40)
+    _check_count("n_seed", n_seed, 1, 9)
+    _check_count("n_grid", n_grid, 2, 256)
+    if beta0 is not None:
+        check_scalar("beta0", beta0, "s", "Leave beta0=None to seed it from a scan.")
     t_start = time.perf_counter()
     problem, h_resps = build_problem(
         block,
@@ -121,9 +146,8 @@ def fit_beta(
         theta0=theta0,
         n_bounces=n_bounces,
         beta_max=beta_max,
-        dashpot=dashpot,
+        joint=joint,
         gap=gap,
-        onset=onset,
     )
     bmax = float(problem.beta_cap) / 1.25
     # reachability, slope scale, and (no beta0) a seed: one vmapped batch of DEM runs
@@ -227,8 +251,7 @@ def _finish(
         theta0=th0,
         duration=problem.duration,
         dt=float(problem.dt),
-        dashpot=problem.dashpot,
-        onset=problem.onset,
+        joint=problem.joint,
         save_dt=SAVE_DT,
     )
     stats = stats_batch(problem, jnp.asarray([beta]))
@@ -283,9 +306,8 @@ def e_effective(
     mode: str = "two_sided",
     theta0=None,
     n_bounces: int | None = None,
-    dashpot: str = "closed",
+    joint: Joint | None = None,
     gap: float = 0.0,
-    onset: str = "sub_step",
     beta_max: float | None = None,
 ) -> dict:
     """The DEM's restitution at each ``beta`` [s] (an array: one vmapped batch), from free rocking.
@@ -309,9 +331,8 @@ def e_effective(
         theta0=theta0,
         n_bounces=n_bounces,
         beta_max=max(beta_max, float(np.max(betas)) / 1.25 + 1e-15),
-        dashpot=dashpot,
+        joint=joint,
         gap=gap,
-        onset=onset,
     )
     log_e, e3, ok = _e_batch(problem, jnp.asarray(betas))
     return {
@@ -349,9 +370,8 @@ def fit_e(
     mode: str = "two_sided",
     theta0=None,
     n_bounces: int | None = None,
-    dashpot: str = "closed",
+    joint: Joint | None = None,
     gap: float = 0.0,
-    onset: str = "sub_step",
     rtol: float = 1e-6,
     max_iter: int = 30,
 ) -> Calibration:
@@ -374,8 +394,14 @@ def fit_e(
             no bounce with :data:`MIN_ENERGY_RATIO` of its release energy (nothing to match).
     """
     t_start = time.perf_counter()
-    if not (np.isfinite(beta) and beta >= 0):
-        raise ValueError(f"beta must be a damping coefficient >= 0 in s; got beta={beta}.")
+    check_nonnegative(
+        "beta",
+        beta,
+        "s",
+        "beta is the DEM's stiffness-proportional damping, e.g. 2e-3.",
+        scalar=True,
+    )
+    _check_stopping(rtol, max_iter, 1e-6, 30)
     problem, _ = build_problem(
         block,
         e=1.0,
@@ -384,9 +410,8 @@ def fit_e(
         theta0=theta0,
         n_bounces=n_bounces,
         beta_max=max(float(beta), 1e-9),
-        dashpot=dashpot,
+        joint=joint,
         gap=gap,
-        onset=onset,
     )
     dem_pk, status = _dem_peaks_jit(problem, jnp.asarray(float(beta)))
     if not bool(np.all(np.asarray(status) == STATUS_OK)):
@@ -477,6 +502,7 @@ def fit_history(
         A :class:`HistoryFit`.
     """
     t_start = time.perf_counter()
+    _check_stopping(rtol, max_iter, 1e-5, 50)
     problem = history_problem(block, measured, beta0, mode, n_bounces)
     block, theta0 = problem.block, float(problem.theta0)
     t = np.asarray(measured.t, float)

@@ -20,8 +20,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import metrics
-from .._checks import check_choice
+from .._checks import check_choice, check_positive, check_scalar
 from ..block import Block
+from ..contact import Joint
 from ..dem import simulate_dem, stable_dt
 from ..housner import simulate_housner
 from ..relations import beta_dejong, beta_hcrit, e_isr, free_rocking_period
@@ -50,8 +51,8 @@ class CalibrationProblem(eqx.Module):
         targets: ``[e]`` (``kind="e"``) or the three bounce targets ``e_exp,1-3`` [-].
         gap: Facade gap [m]. scale: ``|d(log e)/d(beta)|`` [1/s], for ``u = scale * beta``
             (1 until :func:`rockjax.fit_beta` measures it). beta_cap: ``1.25 beta_max`` [s].
-        mode, kind (``"e"`` or ``"bounces"``), n_bounces, duration [s], dt [s], dashpot,
-            onset, hysteresis: the static set-up.
+        mode, kind (``"e"`` or ``"bounces"``), n_bounces, duration [s], dt [s], joint (the
+            DEM's :class:`rockjax.Joint`), hysteresis: the static set-up.
     """
 
     block: Block
@@ -66,8 +67,7 @@ class CalibrationProblem(eqx.Module):
     n_bounces: int = eqx.field(static=True)
     duration: float = eqx.field(static=True)
     dt: float = eqx.field(static=True)
-    dashpot: str = eqx.field(static=True)
-    onset: str = eqx.field(static=True)
+    joint: Joint = eqx.field(static=True)
     hysteresis: float = eqx.field(static=True)
 
 
@@ -82,8 +82,7 @@ def dem_run(problem: CalibrationProblem, beta, theta0=None) -> Response:
         theta0=problem.theta0[0] if theta0 is None else theta0,
         duration=problem.duration,
         dt=problem.dt,
-        dashpot=problem.dashpot,
-        onset=problem.onset,
+        joint=problem.joint,
         save_dt=SAVE_DT,
         throw=False,
     )
@@ -224,6 +223,28 @@ def default_target(mode: str) -> str:
     return "bounces" if mode == "one_sided" else "e"
 
 
+def check_e_target(e, mode: str) -> float:
+    """The target restitution ``e`` [-] of a ``target="e"`` fit as a float, checked: one finite
+    number with ``0 < e <= 1`` (one-sided: ``0 < |e| <= 1``, its magnitude is used)."""
+    check_scalar("e", e, "[-]", "e.g. e=rj.e_housner(block) (Eq. 2) or a measured e.")
+    e_val = float(np.asarray(e, dtype=float))
+    mag = abs(e_val) if mode == "one_sided" else e_val
+    if 0.0 < mag <= 1.0:
+        return e_val
+    which = "0 < |e| <= 1" if mode == "one_sided" else "0 < e <= 1, in (0, 1]"
+    fix = "Pass a measured restitution, e.g. e=0.9."
+    if np.isfinite(e_val) and e_val <= 0.0 and mode == "two_sided":
+        fix = (
+            "Housner's e_H = 1 - 1.5 sin^2(eta) (Eq. 2) is <= 0 for a block with eta >= 54.7 "
+            "deg (b/h >= 1.41), which does not rock by Housner's impact rule: pass a measured "
+            "restitution in (0, 1] for it, e.g. e=0.9."
+        )
+    raise ValueError(
+        f"e (target restitution, dimensionless) must satisfy {which} for mode={mode!r}; "
+        f"got e={e_val:.4g}. {fix}"
+    )
+
+
 def check_n_bounces(n_bounces, default_hint: str = "") -> int:
     """``n_bounces`` (impacts compared) as an int >= 1, else ValueError."""
     if isinstance(n_bounces, bool) or not (
@@ -255,13 +276,17 @@ def build_problem(
     theta0=None,
     n_bounces=None,
     beta_max=None,
-    dashpot="closed",
+    joint=None,
     gap=0.0,
-    onset="sub_step",
 ) -> tuple[CalibrationProblem, list[Response]]:
     """:func:`problem` and the Housner reference responses it was built from (one per release;
     empty for ``target="bounces"``)."""
     check_choice("mode", mode, MODES)
+    joint = Joint() if joint is None else joint
+    if not isinstance(joint, Joint):
+        raise TypeError(
+            f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
+        )
     one_sided = mode == "one_sided"
     defaulted = target is None
     if defaulted:
@@ -297,16 +322,19 @@ def build_problem(
         )
     if beta_max is None:
         beta_max = default_beta_max(block, mode)
-    if not (np.isfinite(beta_max) and beta_max > 0):
-        raise ValueError(f"beta_max must be a positive damping coefficient in s; got {beta_max}.")
+    check_positive(
+        "beta_max",
+        beta_max,
+        "s",
+        "Leave beta_max=None for the default (2 beta_DeJong; 8 beta_Hcrit one-sided).",
+        scalar=True,
+    )
     beta_cap = 1.25 * float(beta_max)
     duration = run_duration(block, th, n_bounces)
-    dt = stable_dt(block, beta_cap, mode=mode)
+    dt = stable_dt(block, beta_cap, mode=mode, joint=joint)
     resps = []
     if target == "e":
-        e_val = float(np.asarray(e))
-        if not (0.0 < abs(e_val) <= 1.0):
-            raise ValueError(f"e (restitution, dimensionless) must be in (0, 1]; got e={e_val}.")
+        e_val = check_e_target(e, mode)
         # Housner's bounce k keeps e^(2k) of the release energy (impact map x flight energy
         # conservation): refuse an uninformative e before running anything, then check the runs
         if e_val**2 < MIN_ENERGY_RATIO:
@@ -336,8 +364,7 @@ def build_problem(
         kind=target,
         n_bounces=int(n_bounces),
         duration=duration,
-        dashpot=dashpot,
-        onset=onset,
+        joint=joint,
         hysteresis=hysteresis(mode),
     )
     return out, resps
@@ -352,9 +379,8 @@ def problem(
     theta0=None,
     n_bounces: int | None = None,
     beta_max: float | None = None,
-    dashpot: str = "closed",
+    joint: Joint | None = None,
     gap: float = 0.0,
-    onset: str = "sub_step",
 ) -> CalibrationProblem:
     """The calibration problem of :func:`rockjax.fit_beta`, checked and set up.
 
@@ -363,7 +389,7 @@ def problem(
     :func:`housner_reference` (the Housner runs its reference peaks ``.ref`` come from).
 
     Args:
-        block, e, target, mode, theta0, n_bounces, beta_max, dashpot, gap, onset: as in
+        block, e, target, mode, theta0, n_bounces, beta_max, joint, gap: as in
             :func:`rockjax.fit_beta` (same defaults, same checks).
 
     Returns:
@@ -381,9 +407,8 @@ def problem(
         theta0=theta0,
         n_bounces=n_bounces,
         beta_max=beta_max,
-        dashpot=dashpot,
+        joint=joint,
         gap=gap,
-        onset=onset,
     )[0]
 
 
@@ -414,8 +439,8 @@ def _range_message(problem, g0, g1, beta_max, e_range):
         e = float(problem.targets[0])
         lo, hi = e_range
         fix = (
-            "; the 'clipped' dashpot saturates: use dashpot='closed' for lower e"
-            if problem.dashpot == "clipped"
+            "; the 'clipped' dashpot saturates: use rj.Joint(dashpot='closed') for lower e"
+            if problem.joint.dashpot == "clipped"
             else ", or widen beta_max for lower e"
         )
         if problem.mode == "one_sided":
@@ -423,7 +448,7 @@ def _range_message(problem, g0, g1, beta_max, e_range):
         return (
             f"target e={e:.4g} is not reachable by this DEM block: over beta in "
             f"[0, {beta_max:.4g}] s its restitution spans e = {lo:.4f} (beta_max) to {hi:.4f} "
-            f"(beta = 0; dashpot={problem.dashpot!r}). Pick e in that range{fix}."
+            f"(beta = 0; {problem.joint}). Pick e in that range{fix}."
         )
     return (
         f"the facade bounce targets {np.round(np.asarray(problem.targets), 4).tolist()} are not "
@@ -588,6 +613,12 @@ def history_problem(
     check_choice("mode", mode, MODES)
     check_n_bounces(n_bounces)
     block = concrete_block(block)
+    if not isinstance(measured, Response):
+        raise ValueError(
+            "measured must be a rockjax.Response (the fit reads measured.t [s] and "
+            f"measured.theta [rad] of the free rocking); got {type(measured).__name__}. Pass "
+            "the Response of a run (rj.simulate_dem) or of a test record."
+        )
     t = np.asarray(measured.t, float)
     th = np.asarray(measured.theta, float)
     if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(th)):
