@@ -53,11 +53,11 @@ def _block(b: float, ratio: float, E: float) -> rj.Block:
     return rj.Block(b=b, h=b * ratio, rho=RHO, E=E)
 
 
-def scan(blk: rj.Block, factors) -> list[dict]:
+def scan(blk: rj.Block, factors, joint: rj.Joint) -> list[dict]:
     """``e_exp`` of bounces 1-3 at ``beta = factors x beta_Hcrit`` [s]; one row per ``beta``
     (NaN where a bounce is absent, as :func:`rockjax.calibration.e_effective` reports it)."""
     bh = float(rj.beta_hcrit(blk))
-    out = rj.calibration.e_effective(blk, bh * np.asarray(factors), mode="one_sided")
+    out = rj.calibration.e_effective(blk, bh * np.asarray(factors), mode="one_sided", joint=joint)
     return [
         {
             "beta_s": float(beta),
@@ -92,6 +92,7 @@ def fit(blk: rj.Block, rows: list[dict], cfg: dict) -> dict:
                 beta_max=bmax,
                 method=cfg["method"],
                 max_iter=cfg["max_iter"],
+                joint=rj.Joint(n_sub=cfg["n_sub"]),
             )
         except ValueError as err:
             msg = str(err).replace("\n", " ")
@@ -126,12 +127,14 @@ def fit(blk: rj.Block, rows: list[dict], cfg: dict) -> dict:
     }
 
 
-def gap_ratios(blk: rj.Block, beta: float, gaps, beta_max: float) -> list[dict]:
+def gap_ratios(blk: rj.Block, beta: float, gaps, beta_max: float, joint: rj.Joint) -> list[dict]:
     """``e_gap / e_0`` at ``beta`` [s] for each gap [m]: of bounce 1 and of the mean of 1-3
     (NaN where a bounce is absent); ``beta_max`` [s] is the fit's, so the DEM step is the fit's."""
     res = []
     for g in gaps:
-        out = rj.calibration.e_effective(blk, [beta], mode="one_sided", gap=g, beta_max=beta_max)
+        out = rj.calibration.e_effective(
+            blk, [beta], mode="one_sided", gap=g, beta_max=beta_max, joint=joint
+        )
         res.append(np.asarray(out["e_exp"][0], float))
     e0 = res[0]
     return [
@@ -235,24 +238,26 @@ def _plot_gap(gaps, path: Path) -> None:
     save_fig(fig, path)
 
 
-def run(out: Path, quick: bool = False) -> dict:
-    """Run the facade study; write CSV/JSON/PNG under ``out`` (after every geometry).
+def run(out: Path, quick: bool = False, n_sub="exact") -> dict:
+    """Run the facade study with the DEM joint ``rj.Joint(n_sub=n_sub)``; write CSV/JSON/PNG
+    under ``out`` (after every geometry).
 
     The gap study runs right after the fit of each geometry in ``cfg["gap_geometries"]``.
     """
-    cfg = QUICK if quick else FULL
+    cfg = {**(QUICK if quick else FULL), "n_sub": n_sub}
+    joint = rj.Joint(n_sub=n_sub)
     geoms = [(b, r, E) for E in cfg["E"] for b in cfg["b"] for r in cfg["ratios"]]
     progress = Progress("facades", len(geoms))
     scans, fits, gaps = [], [], []
     for b, r, E in geoms:
         head = _geometry_head(b, r, E)
-        rows = scan(_block(b, r, E), cfg["scan"])
+        rows = scan(_block(b, r, E), cfg["scan"], joint)
         scans += [{**head, **row} for row in rows]
         f = {**head, **fit(_block(b, r, E), rows, cfg)}
         fits.append(f)
         if (b, r, E) in cfg["gap_geometries"] and np.isfinite(f["beta_fit_s"]):
             pick = ("b_m", "h_m", "h_over_b", "E_Pa", "beta_fit_s")
-            res = gap_ratios(_block(b, r, E), f["beta_fit_s"], cfg["gaps"], f["beta_max_s"])
+            res = gap_ratios(_block(b, r, E), f["beta_fit_s"], cfg["gaps"], f["beta_max_s"], joint)
             gaps += [{**{k: f[k] for k in pick}, **g} for g in res]
         _write(out, scans, fits, gaps, cfg, progress)
         progress.step(f"b={b:g} m h/b={r:g} E={E / 1e9:g} GPa beta_fit={f['beta_fit_s']:.3g} s")

@@ -34,10 +34,13 @@ MATERIAL_GEOMETRY = (0.4, 4.0)
 """``(b, h)`` [m] of the paper's Fig. 3 block."""
 
 
-def e_curve(b: float, h: float, betas, E: float = E0, rho: float = RHO0) -> list[dict]:
+def e_curve(
+    b: float, h: float, betas, E: float = E0, rho: float = RHO0, n_sub="exact"
+) -> list[dict]:
     """DEM restitution at each ``beta`` [s] for a ``b x h`` [m] parapet; one row per ``beta``."""
     blk = rj.Block(b=b, h=h, rho=rho, E=E)
-    out = rj.calibration.e_effective(blk, np.asarray(betas), mode="two_sided")
+    joint = rj.Joint(n_sub=n_sub)
+    out = rj.calibration.e_effective(blk, np.asarray(betas), mode="two_sided", joint=joint)
     bd = float(rj.beta_dejong(blk))
     return [
         {
@@ -132,7 +135,7 @@ def _geometry_study(cfg: dict, progress: Progress) -> tuple[list[dict], list[dic
         for r in cfg["ratios"]:
             h = b * r
             bd = float(rj.beta_dejong(rj.Block(b=b, h=h, rho=RHO0, E=E0)))
-            rs = e_curve(b, h, np.linspace(0.0, 1.5 * bd, cfg["n_beta"]))
+            rs = e_curve(b, h, np.linspace(0.0, 1.5 * bd, cfg["n_beta"]), n_sub=cfg["n_sub"])
             rows += rs
             fits.append(geometry_fit(rs))
             progress.step(f"b={b:g} m h/b={r:g}")
@@ -146,7 +149,7 @@ def _material_study(cfg: dict, progress: Progress) -> tuple[list[dict], list[dic
     rows, fits = [], []
     for E in cfg["E"]:
         for rho in cfg["rho"]:
-            rs = e_curve(b, h, betas, E=E, rho=rho)
+            rs = e_curve(b, h, betas, E=E, rho=rho, n_sub=cfg["n_sub"])
             rows += rs
             fits.append(geometry_fit(rs))
             progress.step(f"b={b:g} m h={h:g} m E={E / 1e9:g} GPa rho={rho:g}")
@@ -209,9 +212,10 @@ def _plot_material(rows, path: Path) -> None:
     save_fig(fig, path)
 
 
-def run(out: Path, quick: bool = False) -> dict:
-    """Run the parapet study; write CSV/JSON/PNG under ``out``; return the JSON payload."""
-    cfg = QUICK if quick else FULL
+def run(out: Path, quick: bool = False, n_sub="exact") -> dict:
+    """Run the parapet study with the DEM joint ``rj.Joint(n_sub=n_sub)``; write CSV/JSON/PNG
+    under ``out``; return the JSON payload."""
+    cfg = {**(QUICK if quick else FULL), "n_sub": n_sub}
     n = len(cfg["b"]) * len(cfg["ratios"]) + len(cfg["E"]) * len(cfg["rho"])
     progress = Progress("parapets", n)
     rows, fits = _geometry_study(cfg, progress)

@@ -32,6 +32,7 @@ checkpointed for reverse mode) and an inner scan over the substeps between two s
 from __future__ import annotations
 
 import math
+import numbers
 
 import equinox as eqx
 import jax
@@ -43,7 +44,14 @@ from .block import Block
 from .constants import G
 from .contact import Joint, normal_force, shear_force
 from .motion import GroundMotion
-from .response import STATUS_MESSAGES, STATUS_NONFINITE, STATUS_OK, STATUS_UNSTABLE, Response
+from .response import (
+    STATUS_BAD_INPUT,
+    STATUS_MESSAGES,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    STATUS_UNSTABLE,
+    Response,
+)
 
 MODES = ("two_sided", "one_sided")
 
@@ -736,6 +744,16 @@ def _run(
     ag_next = jnp.concatenate([ag[1:], ag[-1:]])
     agv_next = jnp.concatenate([ag_v[1:], ag_v[-1:]])
     unstable = dt > critical_dt(params) * (1.0 + 1e-9)
+    # traced inputs cannot be checked in Python: a lane with an impossible one is not run
+    positive = [params.m, params.I_c, params.b, params.h, params.kn_line, params.tan_phi]
+    bad_input = ~(
+        jnp.all(jnp.isfinite(jnp.stack([*positive, params.beta, params.gap])))
+        & jnp.all(jnp.stack(positive) > 0)
+        & (params.beta >= 0)
+        & (params.gap >= 0)
+        & jnp.all(jnp.isfinite(ag))
+        & jnp.all(jnp.isfinite(ag_v))
+    )
 
     def outer(carry, xs):
         z, overturned, status = carry
@@ -776,10 +794,11 @@ def _run(
         return (z_new, over, status), out
 
     outer = jax.checkpoint(outer, prevent_cse=False)
-    carry0 = (_pack(state0), jnp.zeros((), bool), jnp.asarray(STATUS_OK))
+    status0 = jnp.where(bad_input, STATUS_BAD_INPUT, STATUS_OK)
+    carry0 = (_pack(state0), jnp.zeros((), bool), status0)
     (z, overturned, status), out = jax.lax.scan(outer, carry0, (ag, ag_next, ag_v, agv_next))
     if throw:
-        for code in (STATUS_UNSTABLE, STATUS_NONFINITE):
+        for code in (STATUS_BAD_INPUT, STATUS_UNSTABLE, STATUS_NONFINITE):
             msg = (
                 f"rockjax.simulate_dem: {STATUS_MESSAGES[code]}. "
                 "Pass throw=False to get a per-run status instead."
@@ -940,6 +959,31 @@ def _concrete_steps(params, block, beta_max, joint, mode, dt, accuracy):
         ) from None
 
 
+MAX_SAMPLES = 10_000_000
+"""Most output samples a run may have (each saved series is 80 MB at this length)."""
+
+
+def _n_samples(duration, dt_out) -> int:
+    """Samples of a run of ``duration`` [s] saved every ``dt_out`` [s], checked."""
+    if isinstance(duration, bool) or not isinstance(duration, numbers.Real):
+        raise TypeError(
+            f"duration must be a number of seconds, e.g. duration=5.0; got {duration!r}."
+        )
+    if not (np.isfinite(duration) and duration > 0):
+        raise ValueError(
+            f"duration must be a finite, positive time in s; got duration={duration}. "
+            "Leave it None to run the record's length."
+        )
+    n = math.floor(duration / dt_out + 1e-9) + 1
+    if n > MAX_SAMPLES:
+        raise ValueError(
+            f"duration={duration:g} s saved every {dt_out:g} s is {n:.3g} samples, more than "
+            f"{MAX_SAMPLES:.0e} ({8 * n / 1e9:.3g} GB per saved series): shorten duration or "
+            "save less often (save_dt=, or a coarser record step)."
+        )
+    return int(n)
+
+
 def _prepare_motion(motion, duration, save_dt):
     if motion is None:
         if duration is None:
@@ -947,10 +991,18 @@ def _prepare_motion(motion, duration, save_dt):
                 "Free rocking (motion=None) needs duration=<seconds>, e.g. duration=5.0."
             )
         dt_out = DEFAULT_SAVE_DT if save_dt is None else float(save_dt)
+        if not (np.isfinite(dt_out) and dt_out > 0):
+            raise ValueError(
+                f"save_dt must be a positive output interval in s; got save_dt={save_dt}. "
+                f"Leave it None for {DEFAULT_SAVE_DT} s."
+            )
+        _n_samples(duration, dt_out)
         motion = GroundMotion.zeros(duration, dt_out)
     elif not isinstance(motion, GroundMotion):
         raise ValueError(
-            f"motion must be a rockjax.GroundMotion (or None for free rocking); got {type(motion)}."
+            f"motion must be a rockjax.GroundMotion (or None for free rocking); got "
+            f"{type(motion).__name__}. Wrap an acceleration array as "
+            "rj.GroundMotion(ag=<m/s^2>, dt=<s>) or rj.GroundMotion.from_g(<g>, dt)."
         )
     dt_out = motion.dt
     # NumPy for concrete records (no eager JAX dispatch); jnp when the record is traced (vmap)
@@ -958,7 +1010,7 @@ def _prepare_motion(motion, duration, save_dt):
     ag = xp.asarray(motion.ag, float)
     ag_v = xp.zeros_like(ag) if motion.ag_v is None else xp.asarray(motion.ag_v, float)
     if duration is not None:
-        n = int(math.floor(duration / dt_out + 1e-9)) + 1
+        n = _n_samples(duration, dt_out)
         if n < 2:
             raise ValueError(f"duration={duration} s is shorter than two samples of {dt_out} s.")
         pad = max(0, n - ag.shape[0])

@@ -11,6 +11,7 @@ STATUS_OK = 0
 STATUS_NONFINITE = 1
 STATUS_UNSTABLE = 2
 STATUS_UNRESOLVED = 3
+STATUS_BAD_INPUT = 4
 STATUS_MESSAGES = {
     STATUS_OK: "ok",
     STATUS_NONFINITE: "the state became non-finite (NaN/inf): reduce dt or check the inputs",
@@ -18,6 +19,11 @@ STATUS_MESSAGES = {
     STATUS_UNRESOLVED: (
         "Housner: a solver step needed more impacts than max_impacts_per_step (the block was "
         "stopped there): raise max_impacts_per_step or pass a smaller dt"
+    ),
+    STATUS_BAD_INPUT: (
+        "an input traced through jit/vmap is out of range (beta or gap negative or not finite; "
+        "block dimensions, E or rho not finite and positive; a non-finite ground acceleration): "
+        "the run was not made; check that lane's inputs"
     ),
 }
 
