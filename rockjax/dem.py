@@ -58,16 +58,17 @@ MODES = ("two_sided", "one_sided")
 DT_SAFETY = 0.5
 """Largest fraction of the explicit stability limit a default step may take."""
 
-DT_ACCURACY = {"two_sided": 1.0, "one_sided": 0.7}
+DT_ACCURACY = {"two_sided": 1.0, "one_sided": 0.35}
 """Default ``accuracy`` per mode for the integrated face law (``n_sub="exact"``): the step is
 ``accuracy / (omega_max (1 + zeta))`` [s]. With these the first-impact restitution of parapets
 with h/b 4-24 at beta up to 1.5 beta_DeJong is within 1e-3 of its dt -> 0 limit, and the
-rebound peaks of facades within 2 % of a 16x finer step (docs/verification.md, "DEM time step:
-convergence")."""
+rebound peaks of facades above 1 % of eta within 2 % of a 16x finer step (docs/verification.md,
+"DEM time step: convergence"). Facades need the finer step for their later, small bounces
+(at 0.7: bounce 2 of 0.11 x 2.4 m undamped 2.7 % off, of 0.2 x 1.5 m at beta_Hcrit 4 %)."""
 
 DT_ACCURACY_SUB = {"two_sided": 0.5, "one_sided": 0.35}
-"""Default ``accuracy`` per mode with integer ``n_sub`` (point sub-contacts, whose forces jump
-as each point closes: they need half the face law's step for the same accuracy)."""
+"""Default ``accuracy`` per mode with integer ``n_sub`` (point sub-contacts: a point's force
+switches on whole as it closes, so parapets need half the face law's step)."""
 
 DEFAULT_SAVE_DT = 0.002
 """Output interval [s] for free rocking (no record)."""
@@ -307,7 +308,7 @@ def stable_dt(
         gap: Facade gap [m] (does not change the step).
         joint: The contact joint (:class:`rockjax.Joint`; default the integrated face law).
         accuracy: ``omega_max dt (1 + zeta)`` [-]; default ``DT_ACCURACY[mode]`` (1.0 for
-            parapets, 0.7 for facades; half of that with integer ``n_sub``: first-impact ``e``
+            parapets, 0.35 for facades; 0.5 for parapets with integer ``n_sub``: first-impact ``e``
             within 1e-3 of its converged value, facade rebound peaks within 2 %;
             docs/verification.md). Smaller is finer; values
             above ``2 DT_SAFETY / (1 + zeta)`` give the stability-based step.
@@ -727,7 +728,7 @@ def initial_state(params: DemParams, theta0=0.0) -> DemState:
 
 
 @eqx.filter_jit
-def _run(
+def run_prepared(
     params: DemParams,
     state0: DemState,
     ag,
@@ -738,8 +739,14 @@ def _run(
     save: tuple,
     throw: bool,
 ) -> Response:
-    """Outer scan over record samples, assembled into a :class:`Response` (all inside one jit,
-    so a call dispatches no eager operation after the run)."""
+    """The DEM run from a prepared state: what :func:`rockjax.simulate_dem` calls once it has
+    checked its inputs (use it for set-ups it does not offer, e.g. a block dropped flat).
+
+    An outer scan over the record samples, ``n_in`` steps of ``dt`` [s] each (the ground
+    acceleration ``ag``, ``ag_v`` [m/s^2] linear in between), assembled into a
+    :class:`Response` all inside one jit. Nothing is checked here: ``params`` from
+    :func:`dem_params`, ``state0`` e.g. from :func:`initial_state`, ``dt = dt_out / n_in``.
+    """
     n_base, n_wall = len(state0.fs_base), len(state0.fs_wall)
     ag_next = jnp.concatenate([ag[1:], ag[-1:]])
     agv_next = jnp.concatenate([ag_v[1:], ag_v[-1:]])
@@ -909,7 +916,9 @@ def simulate_dem(
     step = dt_out / n_in
     state0 = initial_state(params, theta0)
     # step as an array: traced, so a new step (a new beta) does not recompile
-    return _run(params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, tuple(save), throw)
+    return run_prepared(
+        params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, tuple(save), throw
+    )
 
 
 def _fmt(x):

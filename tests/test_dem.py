@@ -373,7 +373,7 @@ def _drop_restitution(blk, xi, n_in):
     s0 = dem.initial_state(params)
     s0 = eqx.tree_at(lambda s: (s.y, s.vy), s0, (jnp.asarray(0.5 * blk.h + 2e-4), jnp.asarray(-v0)))
     dt_out, n = 1e-3, 40  # contact lasts pi / w ~ 10 ms
-    r = dem._run(
+    r = dem.run_prepared(
         params, s0, np.zeros(n), np.full(n, -G), np.asarray(dt_out / n_in), dt_out, n_in, (), True
     )
     y = np.asarray(r.extras["y"])
@@ -605,7 +605,7 @@ def _face_drop_restitution(blk, xi, n_in):
     s0 = dem.initial_state(params)
     s0 = eqx.tree_at(lambda s: (s.y, s.vy), s0, (jnp.asarray(0.5 * blk.h + 2e-4), jnp.asarray(-v0)))
     dt_out, n = 1e-3, 40
-    r = dem._run(
+    r = dem.run_prepared(
         params, s0, np.zeros(n), np.full(n, -G), np.asarray(dt_out / n_in), dt_out, n_in, (), True
     )
     y = np.asarray(r.extras["y"])
