@@ -4,29 +4,89 @@ Traced values (inside jit/vmap/grad) cannot be checked here; those are checked i
 ``equinox.error_if`` by the simulators.
 """
 
+import math
+
+import jax
 import numpy as np
+
+MAX_SAMPLES = 10_000_000
+"""Most samples a time axis may have (80 MB per float64 series): a record of 50 000 s at
+0.005 s. More is taken for a unit slip (milliseconds for seconds, a step in s typed as a
+rate) and refused before anything is allocated."""
 
 
 def concrete(x):
     """Return ``x`` as a NumPy array if it is concrete, or None if it is a tracer."""
     try:
         return np.asarray(x, dtype=float)
-    except Exception:  # a jax Tracer raises a TracerArrayConversionError subclass here
+    except (TypeError, ValueError):  # a tracer (TracerArrayConversionError), text, an object
         return None
 
 
-def check_number(name: str, value, unit: str) -> None:
-    """Refuse text where a number is expected (NumPy would read "0.25" as 0.25 here, and JAX
-    would then fail deep inside a computation)."""
+def check_number(name: str, value, unit: str, hint: str = "") -> None:
+    """Refuse what is not a real number (or an array of them): text (NumPy would read "0.25"
+    as 0.25 here, and JAX would then fail deep inside a computation), None, a bool, a complex
+    number or any other object. Tracers pass (their values are checked in-graph)."""
+    if isinstance(value, jax.core.Tracer):
+        return
+    fix = f" {hint}" if hint else ""
     if isinstance(value, str | bytes):
+        text = (value.decode(errors="replace") if isinstance(value, bytes) else value).strip()
+        try:
+            float(text)
+            fix = f" Write {name}={text} without quotes."
+        except ValueError:
+            fix = f" Convert it to numbers first.{fix}"
+        raise ValueError(f"{name} must be a number in {unit}, not text; got {name}={value!r}.{fix}")
+    kind = None
+    if value is not None and not isinstance(value, bool | np.bool_):
+        try:
+            kind = np.asarray(value).dtype.kind
+        except jax.errors.TracerArrayConversionError:
+            return  # a sequence of tracers
+        except (TypeError, ValueError):  # a ragged sequence
+            kind = None
+    if kind not in ("i", "u", "f"):
         raise ValueError(
-            f"{name} must be a number in {unit}, not text; got {name}={value!r}. "
-            f"Write {name}={value.strip() if isinstance(value, str) else value!r} without quotes."
+            f"{name} must be a real number in {unit}; got {name}={value!r} "
+            f"(a {type(value).__name__}).{fix}"
         )
 
 
-def check_positive(name: str, value, unit: str, hint: str = "") -> None:
-    check_number(name, value, unit)
+def check_scalar(name: str, value, unit: str, hint: str = "") -> None:
+    """Refuse an array where one number is expected (a concrete value of more than one element)."""
+    check_number(name, value, unit, hint)
+    v = concrete(value)
+    if v is not None and v.ndim != 0 and v.size != 1:
+        fix = f" {hint}" if hint else ""
+        raise ValueError(
+            f"{name} must be one number in {unit}, not an array of shape {v.shape}; got "
+            f"{name}={value!r}.{fix} To run several values, vmap over them or loop."
+        )
+
+
+def check_samples(duration, dt, *, duration_name: str = "duration", dt_name: str = "dt") -> int:
+    """The number of samples ``floor(duration / dt) + 1`` of a time axis, both checked as
+    positive finite numbers [s]; refused above :data:`MAX_SAMPLES` (a unit slip) before
+    anything is allocated."""
+    check_positive(duration_name, duration, "s", f"e.g. {duration_name}=10.0", scalar=True)
+    check_positive(dt_name, dt, "s", f"e.g. {dt_name}=0.005", scalar=True)
+    duration, dt = float(duration), float(dt)
+    n = math.floor(duration / dt + 1e-9) + 1
+    if n > MAX_SAMPLES:
+        raise ValueError(
+            f"{duration_name}={duration:g} s at {dt_name}={dt:g} s is {n:.3g} samples "
+            f"({8 * n / 1e9:.3g} GB per series), above the limit of {MAX_SAMPLES:.0e} samples. "
+            f"Did you give milliseconds for seconds? Use a shorter {duration_name} or a coarser "
+            f"{dt_name} (records are sampled at 0.001-0.02 s)."
+        )
+    return n
+
+
+def check_positive(name: str, value, unit: str, hint: str = "", *, scalar: bool = False) -> None:
+    """Refuse a concrete value that is not a positive finite number (or, with ``scalar``,
+    more than one number)."""
+    (check_scalar if scalar else check_number)(name, value, unit, hint)
     v = concrete(value)
     if v is None:
         return
@@ -37,8 +97,8 @@ def check_positive(name: str, value, unit: str, hint: str = "") -> None:
         )
 
 
-def check_nonnegative(name: str, value, unit: str, hint: str = "") -> None:
-    check_number(name, value, unit)
+def check_nonnegative(name: str, value, unit: str, hint: str = "", *, scalar: bool = False) -> None:
+    (check_scalar if scalar else check_number)(name, value, unit, hint)
     v = concrete(value)
     if v is None:
         return
@@ -48,12 +108,17 @@ def check_nonnegative(name: str, value, unit: str, hint: str = "") -> None:
 
 
 def check_choice(name: str, value, choices) -> None:
-    if value not in choices:
+    try:
+        known = value in choices
+    except TypeError:  # an unhashable value (a list, a dict) is no choice
+        known = False
+    if not known:
         raise ValueError(f"{name} must be one of {sorted(choices)}; got {name}={value!r}.")
 
 
 def check_scales(scales) -> np.ndarray:
     """Scale factors [-] as a float array: 1-D, finite, >= 0 and strictly increasing."""
+    check_number("scales", scales, "[-]", "e.g. scales=np.linspace(0.1, 2.0, 20).")
     s = np.asarray(scales, dtype=float)
     if s.ndim != 1 or s.size < 1:
         raise ValueError(f"scales must be a 1-D array of scale factors; got shape {s.shape}.")

@@ -6,13 +6,17 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ._checks import check_above, check_below, check_positive, concrete
+from ._checks import check_above, check_below, check_positive, check_scalar, concrete
 from ._types import ScalarLike
 from .constants import G
 
 MAX_DIMENSION = 50.0
 """Largest block dimension ``b``, ``h`` or ``length`` accepted [m]: above it the input is
 taken for a unit slip (millimetres for metres)."""
+
+MIN_RHO = 100.0
+"""Smallest density accepted [kg/m^3] (below any masonry, timber or aerated concrete): below it
+the input is taken for a unit slip (t/m^3 or g/cm^3 for kg/m^3)."""
 
 MIN_E = 1e7
 """Smallest Young's modulus accepted [Pa] (10 MPa, below any masonry): below it the input is
@@ -28,7 +32,9 @@ class Block(eqx.Module):
     A facade (``mode="one_sided"``) may rotate only to ``theta >= 0``; its return walls stand
     at its -x face.
 
-    Fields may be Python floats or JAX arrays, so a ``Block`` can be vmapped or differentiated.
+    Each field is one number: a Python float, or a JAX scalar, so a ``Block`` can be built
+    inside ``vmap`` (``jax.vmap(lambda b: rj.Block(b=b, h=3.0))``) or differentiated. A
+    concrete array of several values is refused: vmap over the values instead.
 
     Args:
         b: Full thickness in the rocking direction [m].
@@ -50,11 +56,15 @@ class Block(eqx.Module):
     nu: ScalarLike = 0.25
 
     def __check_init__(self):
-        check_positive("b", self.b, "m", "Give the full wall thickness, e.g. b=0.25.")
-        check_positive("h", self.h, "m", "Give the full wall height, e.g. h=3.0.")
-        check_positive("length", self.length, "m", "Use the out-of-plane length, e.g. 1.0.")
-        check_positive("rho", self.rho, "kg/m^3", "Masonry is about 1800-2400 kg/m^3.")
-        check_positive("E", self.E, "Pa", "Give E in pascals, e.g. 1.8e9 for 1800 MPa.")
+        check_positive("b", self.b, "m", "Give the full wall thickness, e.g. b=0.25.", scalar=True)
+        check_positive("h", self.h, "m", "Give the full wall height, e.g. h=3.0.", scalar=True)
+        check_positive(
+            "length", self.length, "m", "Use the out-of-plane length, e.g. 1.0.", scalar=True
+        )
+        check_positive("rho", self.rho, "kg/m^3", "Masonry is about 1800-2400 kg/m^3.", scalar=True)
+        check_positive(
+            "E", self.E, "Pa", "Give E in pascals, e.g. 1.8e9 for 1800 MPa.", scalar=True
+        )
         for name in ("b", "h", "length"):
             check_below(
                 name,
@@ -65,6 +75,14 @@ class Block(eqx.Module):
                 f"(e.g. {name}=0.25 for 250 mm).",
             )
         check_above(
+            "rho",
+            self.rho,
+            MIN_RHO,
+            "kg/m^3",
+            "Masonry is about 1800-2400 kg/m^3: did you give t/m^3 or g/cm^3? Multiply by "
+            "1000 (e.g. rho=1800 for 1.8 t/m^3).",
+        )
+        check_above(
             "E",
             self.E,
             MIN_E,
@@ -72,6 +90,7 @@ class Block(eqx.Module):
             "Masonry is about 1e8-1e10 Pa: did you give MPa? Multiply by 1e6 (e.g. E=1.8e9 "
             "for 1800 MPa).",
         )
+        check_scalar("nu", self.nu, "[-]", "Masonry is about nu=0.15-0.25.")
         nu = concrete(self.nu)
         # NumPy, not jnp: inside jit every jnp operation is staged, even on a Python float
         if nu is not None and not (np.all(np.isfinite(nu)) and np.all((nu > -1) & (nu < 0.5))):

@@ -43,7 +43,7 @@ import numpy as np
 import xarray as xr
 
 from . import jsonio
-from ._checks import check_scales
+from ._checks import check_nonnegative, check_scales
 from .block import Block
 from .ida import DEFAULT_SCALES, MODELS, ida, run_config
 from .motion import GroundMotion
@@ -203,7 +203,10 @@ def load(out: str | os.PathLike) -> dict[str, xr.Dataset]:
     out = Path(out)
     manifest = out / MANIFEST
     if not manifest.exists():
-        raise ValueError(f"{out} has no {MANIFEST}; it is not a campaign directory.")
+        raise ValueError(
+            f"out={os.fspath(out)!r} has no {MANIFEST}, so it is not a campaign directory: give "
+            "the folder that rockjax.campaign.run wrote, or run the campaign there first."
+        )
     cases = json.loads(manifest.read_text())["cases"]
     result = {}
     for name, entry in cases.items():
@@ -284,12 +287,15 @@ def plan(
         ValueError: on invalid cases, records or part sizes, naming the fix.
     """
     scales = check_scales(scales)
+    check_nonnegative(
+        "tail", tail, "s", "tail is the free vibration after the records, e.g. 2.0.", scalar=True
+    )
     tail = float(tail)
     per = records_per_task
     per = dict.fromkeys(MODELS, per) if not isinstance(per, Mapping) else dict(per)
     for model in MODELS:
         n = per.get(model, 8)
-        if not (isinstance(n, int) and n >= 1):
+        if isinstance(n, bool) or not (isinstance(n, int) and n >= 1):
             raise ValueError(
                 f"records_per_task must be an int >= 1 per model; got {records_per_task!r}."
             )

@@ -32,14 +32,20 @@ checkpointed for reverse mode) and an inner scan over the substeps between two s
 from __future__ import annotations
 
 import math
-import numbers
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._checks import check_choice, check_nonnegative, concrete
+from ._checks import (
+    check_choice,
+    check_nonnegative,
+    check_positive,
+    check_samples,
+    check_scalar,
+    concrete,
+)
 from .block import Block
 from .constants import G
 from .contact import Joint, normal_force, shear_force
@@ -164,8 +170,12 @@ def dem_params(
     """Collect the block, interface and damping into a :class:`DemParams` (traceable)."""
     check_choice("mode", mode, MODES)
     _check_joint(joint)
-    check_nonnegative("beta", beta, "s", "beta is the stiffness-proportional Rayleigh coefficient.")
-    check_nonnegative("gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.")
+    check_nonnegative(
+        "beta", beta, "s", "beta is the stiffness-proportional Rayleigh coefficient.", scalar=True
+    )
+    check_nonnegative(
+        "gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.", scalar=True
+    )
     if phi_deg is None:
         phi_deg = 50.0 if mode == "two_sided" else 30.0
     phi = concrete(phi_deg)
@@ -884,6 +894,10 @@ def simulate_dem(
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
     """
+    if isinstance(save, str):
+        raise ValueError(
+            f"save must be a tuple of output names, e.g. save=({save!r},); got save={save!r}."
+        )
     for key in save:
         check_choice("save entry", key, SAVE_OPTIONS)
     params = dem_params(
@@ -901,6 +915,7 @@ def simulate_dem(
     if dt is None:
         dt_target = dt_default
     else:
+        check_positive("dt", dt, "s", "Or leave dt=None (chosen for accuracy).", scalar=True)
         if not (np.isfinite(dt) and dt > 0):
             raise ValueError(
                 f"dt must be a positive time step in s; got dt={dt}. Or leave dt=None."
@@ -927,6 +942,7 @@ def _fmt(x):
 
 
 def _check_theta0(theta0, block, mode):
+    check_scalar("theta0", theta0, "rad", "e.g. theta0=0.5 * block.eta.")
     th = concrete(theta0)
     eta = concrete(block.eta)
     if th is None or eta is None:
@@ -968,44 +984,18 @@ def _concrete_steps(params, block, beta_max, joint, mode, dt, accuracy):
         ) from None
 
 
-MAX_SAMPLES = 10_000_000
-"""Most output samples a run may have (each saved series is 80 MB at this length)."""
-
-
-def _n_samples(duration, dt_out) -> int:
-    """Samples of a run of ``duration`` [s] saved every ``dt_out`` [s], checked."""
-    if isinstance(duration, bool) or not isinstance(duration, numbers.Real):
-        raise TypeError(
-            f"duration must be a number of seconds, e.g. duration=5.0; got {duration!r}."
-        )
-    if not (np.isfinite(duration) and duration > 0):
-        raise ValueError(
-            f"duration must be a finite, positive time in s; got duration={duration}. "
-            "Leave it None to run the record's length."
-        )
-    n = math.floor(duration / dt_out + 1e-9) + 1
-    if n > MAX_SAMPLES:
-        raise ValueError(
-            f"duration={duration:g} s saved every {dt_out:g} s is {n:.3g} samples, more than "
-            f"{MAX_SAMPLES:.0e} ({8 * n / 1e9:.3g} GB per saved series): shorten duration or "
-            "save less often (save_dt=, or a coarser record step)."
-        )
-    return int(n)
-
-
 def _prepare_motion(motion, duration, save_dt):
     if motion is None:
         if duration is None:
             raise ValueError(
                 "Free rocking (motion=None) needs duration=<seconds>, e.g. duration=5.0."
             )
-        dt_out = DEFAULT_SAVE_DT if save_dt is None else float(save_dt)
-        if not (np.isfinite(dt_out) and dt_out > 0):
-            raise ValueError(
-                f"save_dt must be a positive output interval in s; got save_dt={save_dt}. "
-                f"Leave it None for {DEFAULT_SAVE_DT} s."
+        if save_dt is not None:
+            check_positive(
+                "save_dt", save_dt, "s", f"e.g. save_dt={DEFAULT_SAVE_DT} (the default)."
             )
-        _n_samples(duration, dt_out)
+        dt_out = DEFAULT_SAVE_DT if save_dt is None else float(save_dt)
+        check_samples(duration, dt_out, dt_name="save_dt")
         motion = GroundMotion.zeros(duration, dt_out)
     elif not isinstance(motion, GroundMotion):
         raise ValueError(
@@ -1013,13 +1003,14 @@ def _prepare_motion(motion, duration, save_dt):
             f"{type(motion).__name__}. Wrap an acceleration array as "
             "rj.GroundMotion(ag=<m/s^2>, dt=<s>) or rj.GroundMotion.from_g(<g>, dt)."
         )
+    motion.check_finite()
     dt_out = motion.dt
     # NumPy for concrete records (no eager JAX dispatch); jnp when the record is traced (vmap)
     xp = np if concrete(motion.ag) is not None else jnp
     ag = xp.asarray(motion.ag, float)
     ag_v = xp.zeros_like(ag) if motion.ag_v is None else xp.asarray(motion.ag_v, float)
     if duration is not None:
-        n = _n_samples(duration, dt_out)
+        n = check_samples(duration, dt_out, dt_name="the record's dt")
         if n < 2:
             raise ValueError(f"duration={duration} s is shorter than two samples of {dt_out} s.")
         pad = max(0, n - ag.shape[0])

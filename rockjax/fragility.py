@@ -48,6 +48,7 @@ import numpy as np
 import xarray as xr
 from jaxtyping import ArrayLike, Float
 
+from ._checks import check_scalar
 from .constants import G
 from .response import STATUS_OK
 from .spectra import is_im_name, parse_im
@@ -134,6 +135,33 @@ class Fragility:
             f"{self.n_records} records, {self.n_runs} runs)"
         )
 
+    def summary(self) -> dict:
+        """The fit as a JSON-ready dict (what ``rockjax ida`` writes to its fragility file).
+
+        Keys: ``im``, ``im_units``, ``method``, ``median`` and ``median_ci`` (IM units),
+        ``median_g`` and ``median_ci_g`` (g; None where the IM is no acceleration),
+        ``beta_log``, ``beta_log_ci``, ``ci``, ``n_records``, ``n_runs``, ``n_no_collapse``,
+        ``n_boot`` (resamples drawn) and ``n_boot_failed``. Intervals are ``[lo, hi]``, NaN
+        without bootstrap (``rockjax.jsonio`` writes NaN as null).
+        """
+        return {
+            "im": self.im,
+            "im_units": self.im_units,
+            "method": self.method,
+            "median": self.median,
+            "median_ci": list(self.median_ci),
+            "median_g": self.median_g,
+            "median_ci_g": None if self.median_ci_g is None else list(self.median_ci_g),
+            "beta_log": self.beta_log,
+            "beta_log_ci": list(self.beta_log_ci),
+            "ci": self.ci,
+            "n_records": self.n_records,
+            "n_runs": self.n_runs,
+            "n_no_collapse": self.n_no_collapse,
+            "n_boot": int(np.size(self.boot_median)) + self.n_boot_failed,
+            "n_boot_failed": self.n_boot_failed,
+        }
+
     def prob(self, im: Float[ArrayLike, "*shape"]) -> Float[np.ndarray, "*shape"]:
         r"""Probability of collapse :math:`\Phi(\ln(IM/\theta)/\sigma)` at the given IM values.
 
@@ -202,6 +230,12 @@ def fragility(
             not exist (no collapse, no survival, fewer than two collapsing records for
             ``first_collapse``, or collapses and survivals that do not overlap in IM).
     """
+    if not isinstance(ds, xr.Dataset):
+        raise ValueError(
+            f"ds must be the xarray.Dataset that rj.ida returns (dims record and scale); got "
+            f"{type(ds).__name__}. Run ds = rj.ida(block, records, scales, ...) first, or "
+            "xr.open_dataset(path) for a saved one."
+        )
     for var in ("collapse", "status"):
         if var not in ds.variables:
             raise ValueError(
@@ -210,9 +244,10 @@ def fragility(
             )
     im = default_im(ds) if im is None else im
     im_grid = intensity_grid(ds, im)
-    if not (isinstance(n_boot, int) and n_boot >= 0):
+    if isinstance(n_boot, bool) or not (isinstance(n_boot, int | np.integer) and n_boot >= 0):
         raise ValueError(f"n_boot must be an int >= 0; got n_boot={n_boot!r}. Use 1000.")
-    if not 0.0 < ci < 1.0:
+    check_scalar("ci", ci, "[-]", "Use ci=0.9 for a 90 % interval.")
+    if not 0.0 < float(ci) < 1.0:
         raise ValueError(f"ci must be a confidence level in (0, 1); got ci={ci}. Use 0.9.")
     dims = ("record", "scale")
     collapse = np.asarray(ds["collapse"].transpose(*dims), dtype=bool)

@@ -251,6 +251,12 @@ def history_error(
     theta = jnp.asarray(theta, float)
     theta_ref = jnp.asarray(theta_ref, float)
     w = jnp.ones_like(theta_ref) if weights is None else jnp.asarray(weights, float)
+    if theta.shape != theta_ref.shape or w.shape != theta_ref.shape:
+        raise ValueError(
+            f"theta, theta_ref and weights must have one value per sample, the same shape; got "
+            f"theta {theta.shape}, theta_ref {theta_ref.shape}, weights {w.shape}. Sample both "
+            "histories on the same times, e.g. theta = np.interp(t_ref, t, theta)."
+        )
     num = jnp.sum(w * (theta - theta_ref) ** 2)
     den = jnp.maximum(jnp.sum(w * theta_ref**2), 1e-300)
     return jnp.sqrt(num / den + 1e-300)

@@ -5,11 +5,13 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from ._checks import check_positive, concrete
+from ._checks import MAX_SAMPLES as MAX_SAMPLES
+from ._checks import check_number, check_positive, check_samples, check_scalar, concrete
 from ._types import Scalar, ScalarLike, TimeSeries
 from .constants import G
 
@@ -18,6 +20,18 @@ PLAUSIBLE_LIMIT_G = 10.0
 
 Strong-motion records peak at a few g; a peak above 10 g almost always means a record in cm/s^2
 (or mm/s^2) passed where rockjax takes m/s^2 (a 0.3 g record is 294 cm/s^2)."""
+
+
+def _step(dt) -> float:
+    """The sampling step [s] as a Python float, checked (the converter of ``GroundMotion.dt``)."""
+    if isinstance(dt, jax.core.Tracer):
+        raise ValueError(
+            "dt (the sampling step, in s) must be a concrete number: it fixes the number of "
+            "steps, so it cannot be traced under jit/vmap/grad. Build the GroundMotion outside "
+            "the transform, or close over dt."
+        )
+    check_positive("dt", dt, "s", "Use the record's sampling step, e.g. dt=0.01.", scalar=True)
+    return float(np.asarray(dt, dtype=float))
 
 
 class GroundMotion(eqx.Module):
@@ -39,7 +53,8 @@ class GroundMotion(eqx.Module):
 
     ag: Float[ArrayLike, " time"]
     # dt is static: it fixes the number of steps of every simulation, which must be concrete.
-    dt: float = eqx.field(static=True)
+    # The converter checks it before equinox stores it (an array would be stored as static).
+    dt: float = eqx.field(static=True, converter=_step)
     name: str = eqx.field(static=True, default="record")
     ag_v: Float[ArrayLike, " time"] | None = None
     # A tuple of string pairs rather than a dict: a dict would be a pytree whose values JAX
@@ -49,12 +64,10 @@ class GroundMotion(eqx.Module):
     meta: tuple[tuple[str, str], ...] = eqx.field(static=True, default=())
 
     def __check_init__(self):
-        check_positive("dt", self.dt, "s", "Use the record's sampling step, e.g. dt=0.01.")
-        if isinstance(self.ag, str) or isinstance(self.ag_v, str):
-            raise ValueError("ag and ag_v must be arrays of accelerations in m/s^2, not strings.")
         for label, arr in (("ag", self.ag), ("ag_v", self.ag_v)):
             if arr is None:
                 continue
+            check_number(label, arr, "m/s^2", "Pass an array of accelerations, e.g. np.array(...).")
             a = concrete(arr)
             if a is None:
                 continue
@@ -63,12 +76,7 @@ class GroundMotion(eqx.Module):
                     f"{label} must be a 1-D acceleration series in m/s^2 with at least 2 samples; "
                     f"got shape {a.shape}. Pass one record at a time (batches go through rj.ida)."
                 )
-            bad = np.flatnonzero(~np.isfinite(a))
-            if bad.size:
-                raise ValueError(
-                    f"{label} of record {self.name!r} has {bad.size} non-finite samples (first at "
-                    f"index {bad[0]}, t={bad[0] * self.dt:.4f} s). Clean or trim the record first."
-                )
+            _check_finite_series(label, a, self)
             _check_plausible_acceleration(label, float(np.max(np.abs(a))), f"record {self.name!r}")
         if self.ag_v is not None and np.shape(self.ag_v) != np.shape(self.ag):
             raise ValueError(
@@ -89,6 +97,14 @@ class GroundMotion(eqx.Module):
     @classmethod
     def from_g(cls, ag_g, dt: float, name: str = "record", ag_v_g=None) -> GroundMotion:
         """Build from accelerations in units of g (as PEER and FEMA P695 store them)."""
+        for label, arr in (("ag_g", ag_g), ("ag_v_g", ag_v_g)):
+            if arr is None:
+                continue
+            check_number(label, arr, "g", "e.g. ag_g=np.array([0.0, 0.1, -0.05]).")
+            if (a := concrete(arr)) is not None and a.size and np.all(np.isfinite(a)):
+                _check_plausible_acceleration(
+                    label, float(np.max(np.abs(a))) * G, f"record {name!r}"
+                )
         ag = np.asarray(ag_g, dtype=float) * G
         ag_v = None if ag_v_g is None else np.asarray(ag_v_g, dtype=float) * G
         return cls(ag=ag, dt=dt, name=name, ag_v=ag_v)
@@ -96,19 +112,39 @@ class GroundMotion(eqx.Module):
     @classmethod
     def from_time_series(cls, t, ag, name: str = "record", rtol: float = 1e-6) -> GroundMotion:
         """Build from sample times ``t`` [s] and accelerations ``ag`` [m/s^2]; ``t`` must be uniform."""
+        check_number("t", t, "s", "Pass the sample times, e.g. np.arange(n) * 0.01.")
+        check_number("ag", ag, "m/s^2", "Pass the accelerations as numbers.")
         t = np.asarray(t, dtype=float)
         ag = np.asarray(ag, dtype=float)
         if t.ndim != 1 or t.shape != ag.shape or t.size < 2:
             raise ValueError(
-                f"t and ag must be 1-D of equal length >= 2; got {t.shape} and {ag.shape}."
+                f"t and ag must be 1-D of equal length >= 2; got t of shape {t.shape} and ag "
+                f"of shape {ag.shape}. Pass one time and one acceleration per sample."
+            )
+        bad = np.flatnonzero(~np.isfinite(t))
+        if bad.size:
+            raise ValueError(
+                f"t (sample times of record {name!r}) must be finite; t[{bad[0]}] = {t[bad[0]]}. "
+                "Remove or fix that sample."
             )
         steps = np.diff(t)
+        back = np.flatnonzero(steps <= 0)
+        if back.size:
+            k = int(back[0])
+            raise ValueError(
+                f"t (sample times of record {name!r}) must increase: t[{k}] = {t[k]:.6g} s is "
+                f"followed by t[{k + 1}] = {t[k + 1]:.6g} s. Sort the samples by time and drop "
+                "repeated times (or check that the time column is the first)."
+            )
         dt = float(np.mean(steps))
         worst = int(np.argmax(np.abs(steps - dt)))
-        if dt <= 0 or np.abs(steps[worst] - dt) > rtol * dt:
+        if np.abs(steps[worst] - dt) > rtol * dt:
             raise ValueError(
-                f"record {name!r} is not uniformly sampled: step {worst} is {steps[worst]:.6g} s "
-                f"against a mean of {dt:.6g} s. Resample it to a uniform step first."
+                f"t (sample times of record {name!r}) is not uniformly sampled: step {worst} "
+                f"(t[{worst}] = {t[worst]:.6g} s to t[{worst + 1}] = {t[worst + 1]:.6g} s) is "
+                f"{steps[worst]:.6g} s against a mean of {dt:.6g} s (rtol={rtol:g}). Resample "
+                "the record to a uniform step first, e.g. np.interp(np.arange(t[0], t[-1], dt), "
+                "t, ag)."
             )
         return cls(ag=ag, dt=dt, name=name)
 
@@ -138,7 +174,7 @@ class GroundMotion(eqx.Module):
             duration: Record length [s]; default ``t0 + 4 T``.
             t0: Time of the central peak [s]; default ``1.5 T``.
         """
-        pga = _pulse_amplitude("ricker", pga, pga_g, period)
+        pga = _pulse_amplitude("ricker", pga, pga_g, period, t0)
         t0 = 1.5 * period if t0 is None else t0
         duration = t0 + 4.0 * period if duration is None else duration
         t = _time_axis(duration, dt)
@@ -168,7 +204,7 @@ class GroundMotion(eqx.Module):
             duration: Record length [s]; default ``t0 + 5 T``.
             t0: Pulse start [s].
         """
-        pga = _pulse_amplitude("sine_cycle", pga, pga_g, period)
+        pga = _pulse_amplitude("sine_cycle", pga, pga_g, period, t0)
         duration = t0 + 5.0 * period if duration is None else duration
         t = _time_axis(duration, dt)
         tau = t - t0
@@ -224,7 +260,7 @@ class GroundMotion(eqx.Module):
             Vassiliou, M. F. and Makris, N. (2011). Estimating time scales and length scales in
             pulselike earthquake acceleration records with wavelet analysis. BSSA 101(2).
         """
-        pga = _pulse_amplitude("ricker_antisymmetric", pga, pga_g, period)
+        pga = _pulse_amplitude("ricker_antisymmetric", pga, pga_g, period, t0)
         t0 = 1.5 * period if t0 is None else t0
         duration = t0 + 4.0 * period if duration is None else duration
         t = _time_axis(duration, dt)
@@ -278,7 +314,7 @@ class GroundMotion(eqx.Module):
             Makris, N. and Roussos, Y. (2000). Rocking response of rigid blocks under
             near-source ground motions. Geotechnique 50(3), 243-262.
         """
-        pga = _pulse_amplitude("cosine_cycle", pga, pga_g, period)
+        pga = _pulse_amplitude("cosine_cycle", pga, pga_g, period, t0)
         duration = t0 + 5.0 * period if duration is None else duration
         t = _time_axis(duration, dt)
         tau = t - t0
@@ -296,6 +332,15 @@ class GroundMotion(eqx.Module):
         return cls(ag=np.zeros(_time_axis(duration, dt).size), dt=dt, name=name)
 
     # ----------------------------------------------------------------- derived
+    def check_finite(self) -> None:
+        """Raise a ValueError naming the series and the first sample if a concrete ``ag`` or
+        ``ag_v`` has a NaN or infinite sample (construction checks this; the simulators check
+        again, since a record can be changed afterwards, e.g. with ``equinox.tree_at``)."""
+        for label, arr in (("ag", self.ag), ("ag_v", self.ag_v)):
+            a = None if arr is None else concrete(arr)
+            if a is not None:
+                _check_finite_series(label, a, self)
+
     @property
     def n(self) -> int:
         """Number of samples."""
@@ -341,7 +386,15 @@ class GroundMotion(eqx.Module):
         return GroundMotion(ag=ag, dt=dt, name=self.name, ag_v=ag_v, meta=self.meta)
 
     def scaled(self, factor) -> GroundMotion:
-        """The record times ``factor`` (horizontal and vertical)."""
+        """The record times ``factor`` (horizontal and vertical).
+
+        Raises:
+            ValueError: if a concrete ``factor`` is not a finite number (a traced one, e.g.
+                under ``vmap`` over scale factors, is not checked).
+        """
+        check_number("factor", factor, "[-]", "e.g. factor=0.5.")
+        if (f := concrete(factor)) is not None and not np.all(np.isfinite(f)):
+            raise ValueError(f"factor must be finite [-]; got factor={factor!r}. E.g. factor=0.5.")
         ag_v = None if self.ag_v is None else self.ag_v * factor
         return self._with_series(self.ag * factor, ag_v)
 
@@ -368,13 +421,11 @@ class GroundMotion(eqx.Module):
                 "scaled_to_pga(target_pga_g=0.3) or scaled_to_pga(0.3 * rockjax.constants.G)."
             )
         if target_pga_g is not None:
-            _reject_string("target_pga_g", target_pga_g, "g")
             check_positive("target_pga_g", target_pga_g, "g", "Pass a magnitude, e.g. 0.3.")
             if (v := concrete(target_pga_g)) is not None:
                 _check_plausible_acceleration("target_pga_g", float(np.max(v)) * G, "the target")
             target_pga = target_pga_g * G
         else:
-            _reject_string("target_pga", target_pga, "m/s^2")
             check_positive(
                 "target_pga",
                 target_pga,
@@ -405,14 +456,14 @@ class GroundMotion(eqx.Module):
         Raises:
             ValueError: if ``dt_new`` is not positive or is longer than the record.
         """
-        check_positive("dt_new", dt_new, "s")
+        check_positive("dt_new", dt_new, "s", "e.g. dt_new=0.005.", scalar=True)
         dt_new = float(dt_new)
         if dt_new > self.duration * (1.0 + 1e-12):
             raise ValueError(
                 f"dt_new={dt_new} s is longer than record {self.name!r} ({self.duration} s); "
                 "the resampled record would have a single sample. Use a smaller dt_new."
             )
-        t_new = _time_axis(self.duration, dt_new)
+        t_new = _time_axis(self.duration, dt_new, dt_name="dt_new")
         t_old = self.t
 
         def interp(a):
@@ -532,9 +583,14 @@ class GroundMotion(eqx.Module):
         return first_time(hi) - first_time(lo)
 
 
-def _reject_string(name: str, value, unit: str) -> None:
-    if isinstance(value, (str, bytes, bool)):
-        raise ValueError(f"{name} must be a number in {unit}; got {name}={value!r}.")
+def _check_finite_series(label: str, a: np.ndarray, motion: GroundMotion) -> None:
+    bad = np.flatnonzero(~np.isfinite(a))
+    if bad.size:
+        raise ValueError(
+            f"{label} [m/s^2] of record {motion.name!r} has {bad.size} non-finite samples "
+            f"(first at index {bad[0]}, t={bad[0] * motion.dt:.4f} s). Clean or trim the record "
+            "first."
+        )
 
 
 def _check_plausible_acceleration(name: str, peak: float, where: str) -> None:
@@ -559,7 +615,7 @@ def _check_plausible_acceleration(name: str, peak: float, where: str) -> None:
     )
 
 
-def _pulse_amplitude(constructor: str, pga, pga_g, period):
+def _pulse_amplitude(constructor: str, pga, pga_g, period, t0=None):
     """The signed pulse amplitude [m/s^2] from ``pga`` [m/s^2] or ``pga_g`` [g], checked."""
     if (pga is None) == (pga_g is None):
         raise ValueError(
@@ -572,10 +628,13 @@ def _pulse_amplitude(constructor: str, pga, pga_g, period):
         raise ValueError(
             f"{constructor} needs period, the pulse period in s, e.g. period=0.5; got none."
         )
-    _reject_string("period", period, "s")
-    check_positive("period", period, "s")
+    check_positive("period", period, "s", "e.g. period=0.5.", scalar=True)
+    if t0 is not None:
+        check_scalar("t0", t0, "s", "e.g. t0=1.0.")
+        if not np.isfinite(float(np.asarray(t0, dtype=float))):
+            raise ValueError(f"t0 must be a finite time in s; got t0={t0!r}. E.g. t0=1.0.")
     name, value, unit = ("pga", pga, "m/s^2") if pga_g is None else ("pga_g", pga_g, "g")
-    _reject_string(name, value, unit)
+    check_number(name, value, unit, f"e.g. {name}=0.4.")
     if (v := concrete(value)) is not None:
         if v.ndim != 0 or not np.isfinite(v):
             raise ValueError(
@@ -587,11 +646,10 @@ def _pulse_amplitude(constructor: str, pga, pga_g, period):
     return value if pga_g is None else value * G
 
 
-def _time_axis(duration: float, dt: float) -> np.ndarray:
-    check_positive("duration", duration, "s")
-    check_positive("dt", dt, "s")
-    n = int(math.floor(duration / dt + 1e-9)) + 1
-    return np.arange(n) * dt
+def _time_axis(duration: float, dt: float, dt_name: str = "dt") -> np.ndarray:
+    """Sample times ``k dt`` [s] up to ``duration``, both checked (:func:`check_samples`)."""
+    n = check_samples(duration, dt, dt_name=dt_name)
+    return np.arange(n) * float(dt)
 
 
 def _cumtrapz(y, dt: float):

@@ -18,7 +18,7 @@ import dataclasses
 
 import numpy as np
 
-from ._checks import check_positive
+from ._checks import check_choice, check_number, check_positive
 from .motion import GroundMotion
 
 SHAPES = ("MH", "AR", "SC")
@@ -55,7 +55,8 @@ def lowpass(motion: GroundMotion, f_cut: float = DEFAULT_F_CUT) -> GroundMotion:
     The gain is 1 below ``f_cut``, a raised cosine down to 0 at ``1.5 f_cut``, 0 above. The
     record is zero-padded to twice its length first, so the filter does not wrap around.
     """
-    check_positive("f_cut", f_cut, "Hz", "e.g. f_cut=3.0")
+    _check_motion(motion)
+    check_positive("f_cut", f_cut, "Hz", "e.g. f_cut=3.0", scalar=True)
     a = np.asarray(motion.ag, float)
     n = a.size
     spec = np.fft.rfft(a, 2 * n)
@@ -64,6 +65,14 @@ def lowpass(motion: GroundMotion, f_cut: float = DEFAULT_F_CUT) -> GroundMotion:
     gain = 0.5 * (1.0 + np.cos(np.pi * x))
     out = np.fft.irfft(spec * gain, 2 * n)[:n]
     return GroundMotion(ag=out, dt=motion.dt, name=f"{motion.name}_lp{f_cut:g}Hz")
+
+
+def _check_motion(motion) -> None:
+    if not isinstance(motion, GroundMotion):
+        raise ValueError(
+            f"motion must be a rockjax.GroundMotion; got {type(motion).__name__}. Wrap an "
+            "array of accelerations [m/s^2] as rj.GroundMotion(ag=ag, dt=dt)."
+        )
 
 
 def _template(shape: str, period: float, dt: float) -> tuple[np.ndarray, float]:
@@ -116,11 +125,21 @@ def fit_pulse(
     Returns:
         A :class:`PulseFit`.
     """
-    if shape not in SHAPES:
-        raise ValueError(f"shape must be one of {SHAPES}; got {shape!r}.")
+    _check_motion(motion)
+    check_choice("shape", shape, SHAPES)
+    check_number("periods", periods, "s", "e.g. periods=np.geomspace(0.2, 5.0, 61).")
     periods = np.asarray(periods, float)
-    if periods.ndim != 1 or periods.size < 3 or np.any(np.diff(periods) <= 0) or periods[0] <= 0:
-        raise ValueError("periods must be >= 3 increasing positive periods in s.")
+    if (
+        periods.ndim != 1
+        or periods.size < 3
+        or not np.all(np.isfinite(periods))
+        or np.any(np.diff(periods) <= 0)
+        or periods[0] <= 0
+    ):
+        raise ValueError(
+            f"periods must be at least 3 increasing positive periods in s; got periods={periods}. "
+            "E.g. periods=np.geomspace(0.2, 5.0, 61) (the default)."
+        )
     rec = motion if f_cut is None else lowpass(motion, f_cut)
     a = np.asarray(rec.ag, float)
     energy = float(np.sum(a * a))
@@ -174,6 +193,17 @@ def identify_pulse(
     Returns:
         ``(best, fits)``: the fit with the highest ``r2``, and every shape's fit by name.
     """
+    if isinstance(shapes, str) or not all(isinstance(sh, str) for sh in shapes) or not shapes:
+        raise ValueError(
+            f"shapes must be a non-empty sequence of shape names from {SHAPES}; got "
+            f"shapes={shapes!r}. E.g. shapes=('MH',) for the Ricker wavelet alone."
+        )
+    for sh in shapes:
+        if sh not in SHAPES:
+            raise ValueError(
+                f"shapes holds {sh!r}, which is no pulse shape; each entry must be one of "
+                f"{SHAPES}, e.g. shapes=('MH', 'SC')."
+            )
     fits = {sh: fit_pulse(motion, sh, periods=periods, f_cut=f_cut) for sh in shapes}
     best = max(fits.values(), key=lambda f: f.r2)
     return best, fits

@@ -79,7 +79,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._checks import concrete
+from ._checks import check_number, concrete
 from .constants import G
 from .motion import GroundMotion
 
@@ -481,6 +481,8 @@ def _record(motion, dt, label: str):
 
 def _check_oscillators(periods, damping, n_sub, dt: float):
     """Checked ``(periods as a float64 array, damping, n_sub)``."""
+    check_number("periods", periods, "s", "e.g. periods=np.geomspace(0.05, 5, 50).")
+    check_number("damping", damping, "[-]", "e.g. damping=0.05 for 5 %.")
     p = concrete(periods)  # before jnp.asarray, which under jit makes even constants traced
     periods = jnp.asarray(periods, dtype=jnp.float64)
     if periods.ndim != 1 or periods.shape[0] < 1:

@@ -16,6 +16,7 @@ import numpy as np
 from .. import metrics
 from .._checks import check_choice, check_nonnegative, check_scalar
 from ..block import Block
+from ..compilation import notice_once
 from ..contact import Joint
 from ..dem import simulate_dem
 from ..housner import simulate_housner
@@ -138,6 +139,10 @@ def fit_beta(
     if beta0 is not None:
         check_scalar("beta0", beta0, "s", "Leave beta0=None to seed it from a scan.")
     t_start = time.perf_counter()
+    notice_once(
+        ("fit_beta", mode, method),
+        f"rockjax: compiling the {mode} calibration (DEM and Housner runs; once per session)...",
+    )
     problem, h_resps = build_problem(
         block,
         e=e,

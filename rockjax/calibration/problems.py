@@ -49,10 +49,17 @@ class CalibrationProblem(eqx.Module):
         theta0: Release rotations [rad], shape ``(n_release,)``.
         ref: Housner reference peaks, leading axis ``n_release`` (dummies for ``"bounces"``).
         targets: ``[e]`` (``kind="e"``) or the three bounce targets ``e_exp,1-3`` [-].
-        gap: Facade gap [m]. scale: ``|d(log e)/d(beta)|`` [1/s], for ``u = scale * beta``
-            (1 until :func:`rockjax.fit_beta` measures it). beta_cap: ``1.25 beta_max`` [s].
-        mode, kind (``"e"`` or ``"bounces"``), n_bounces, duration [s], dt [s], joint (the
-            DEM's :class:`rockjax.Joint`), hysteresis: the static set-up.
+        gap: Facade gap [m].
+        scale: ``|d(log e)/d(beta)|`` [1/s], for ``u = scale * beta`` (1 until
+            :func:`rockjax.fit_beta` measures it).
+        beta_cap: ``1.25 beta_max`` [s].
+        mode: ``"two_sided"`` or ``"one_sided"`` (static, as the fields below).
+        kind: ``"e"`` or ``"bounces"``.
+        n_bounces: Bounces compared.
+        duration: Length of each free-rocking run [s].
+        dt: DEM time step [s].
+        joint: The DEM's :class:`rockjax.Joint`.
+        hysteresis: Impact threshold of the peak finders, a fraction of ``eta`` [-].
     """
 
     block: Block
@@ -231,7 +238,7 @@ def check_e_target(e, mode: str) -> float:
     mag = abs(e_val) if mode == "one_sided" else e_val
     if 0.0 < mag <= 1.0:
         return e_val
-    which = "0 < |e| <= 1" if mode == "one_sided" else "0 < e <= 1, in (0, 1]"
+    which = "0 < |e| <= 1" if mode == "one_sided" else "0 < e <= 1"
     fix = "Pass a measured restitution, e.g. e=0.9."
     if np.isfinite(e_val) and e_val <= 0.0 and mode == "two_sided":
         fix = (
@@ -388,9 +395,8 @@ def problem(
     ``log e``, peak loss at a ``beta``), :func:`dem_run` (the DEM run at a ``beta``) and
     :func:`housner_reference` (the Housner runs its reference peaks ``.ref`` come from).
 
-    Args:
-        block, e, target, mode, theta0, n_bounces, beta_max, joint, gap: as in
-            :func:`rockjax.fit_beta` (same defaults, same checks).
+    Its arguments ``block, e, target, mode, theta0, n_bounces, beta_max, joint, gap`` are those
+    of :func:`rockjax.fit_beta` (same defaults, same checks).
 
     Returns:
         A :class:`CalibrationProblem` (its ``scale`` is 1: ``fit_beta`` sets it from its scan).
