@@ -99,6 +99,7 @@ def beta_from_zeta(zeta: _In, omega: _In) -> _Out:
     r"""Stiffness-proportional coefficient giving a damping ratio at one frequency, Eq. (1).
 
     Eq. (1) with ``alpha = 0`` (the paper's stiffness-proportional damping):
+
     $$\beta = \frac{2\,\zeta_n}{\omega_n}$$
 
     Args:
@@ -281,6 +282,7 @@ def beta_dejong(block: Block) -> _Out:
     r"""DeJong's ``beta``: critical damping at ``omega_crit``, from Eq. (1).
 
     Eq. (1) with ``zeta_n = 1`` and ``alpha = 0`` at ``omega_n = omega_crit``:
+
     $$\beta = \frac{2}{\omega_{crit}}$$
 
     Args:
