@@ -9,8 +9,12 @@ a summary.
 
 ``rockjax ida --records nearfield|farfield|...|FILE.AT2... --out ida.nc`` runs an incremental
 dynamic analysis (:func:`rockjax.ida`) of one block under FEMA P695 record sets
-(:func:`rockjax.records.fema_p695`) or PEER ``.AT2`` files, writes the Dataset to NetCDF and
-prints a summary.
+(:func:`rockjax.records.fema_p695`) or PEER ``.AT2`` files, writes the Dataset to NetCDF and,
+next to it, the IDA table as CSV (``ida.csv``: one row per run), the IDA curves and the
+fitted collapse fragility as figures (``ida_curves.png``, ``ida_fragility.png``; PDF or SVG with
+``--figure-format``) and the fragility summary (``ida_fragility.json``: median in the IM's
+units and in g, dispersion, bootstrap intervals; or why it cannot be fitted), and prints a
+summary.
 
 ``rockjax calibrate --b 0.25 --h 3 [--e 0.975]`` fits the DEM damping ``beta`` of one block so
 that its free rocking matches Housner's with restitution ``e`` (:func:`rockjax.fit_beta`; default
@@ -43,6 +47,7 @@ import numpy as np
 from . import __version__, jsonio, plot
 from .block import Block
 from .calibration import fit_beta
+from .compilation import enable_cache
 from .constants import G
 from .contact import Joint
 from .dem import simulate_dem, stable_dt
@@ -68,6 +73,7 @@ DT_OUT = 0.005  # output step [s] of the parapet runs (and the Ricker record's s
 PARAPET_DURATION = 8.0  # [s], at least: 3 bounces at e = 1 (free-rocking period 2.4 s)
 FACADE_DT_OUT = 0.002  # [s]: facade bounces are short
 FACADE_DURATION = 1.5  # [s]: the facade is at rest after about 1 s
+FIGURE_FORMATS = ("png", "pdf", "svg")  # matplotlib writes each without extra packages
 
 
 def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
@@ -84,6 +90,8 @@ def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
     """
     parser = _parser()
     args = parser.parse_args(None if argv is None else [os.fspath(a) for a in argv])
+    if argv is None:  # run as the command (not called from Python): reuse compiled programs
+        enable_cache()
     try:
         return args.run(args)
     except ValueError as err:
@@ -645,12 +653,14 @@ def _add_ida_parser(sub) -> None:
 
     p = sub.add_parser(
         "ida",
-        help="incremental dynamic analysis of one block under record sets; writes NetCDF",
+        help="incremental dynamic analysis of one block under record sets; writes NetCDF, CSV, "
+        "figures and a fragility summary",
         description=(
             "Run one block under every record at every scale factor (rockjax.ida) and write the "
-            "(record x scale) Dataset to NetCDF. Records: the FEMA P695 sets (both horizontal "
-            "components of each record; needs `pip install rockjax[records]`) and/or PEER "
-            ".AT2 files (or folders of them)."
+            "(record x scale) Dataset to NetCDF, with the IDA table (CSV), the IDA and fragility "
+            "figures and the fragility summary (JSON) next to it. Records: the FEMA P695 sets "
+            "(both horizontal components of each record; needs `pip install rockjax[records]`) "
+            "and/or PEER .AT2 files (or folders of them)."
         ),
         allow_abbrev=False,
     )
@@ -709,7 +719,26 @@ def _add_ida_parser(sub) -> None:
         help="intensity measure of the IDA and its fragility: pga, pgv or sa(T), e.g. sa(0.5) "
         "(default: pga)",
     )
-    p.add_argument("--out", required=True, metavar="FILE.nc", help="NetCDF file to write")
+    p.add_argument(
+        "--figure-format",
+        choices=FIGURE_FORMATS,
+        default="png",
+        help="format of the IDA and fragility figures: png (raster) or pdf/svg (vector) "
+        "(default: png)",
+    )
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: only when stderr is a terminal)",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="FILE.nc",
+        help="NetCDF file to write; the CSV table, figures and fragility summary go next to it "
+        "(FILE.csv, FILE_curves.png, FILE_fragility.png, FILE_fragility.json)",
+    )
     p.set_defaults(run=_ida)
 
 
@@ -753,16 +782,68 @@ def _check_writable(flag: str, folder: Path) -> None:
         )
 
 
-def _fragility_summary(ds) -> str:
-    """One line: the lognormal collapse fragility of the IDA (median in g where the IM is an
-    acceleration), or why it cannot be fitted."""
+def _ida_outputs(out: Path, figure_format: str) -> dict[str, Path]:
+    """The files ``rockjax ida`` writes, by kind: the NetCDF ``out`` and, next to it, the CSV
+    table, the two figures and the fragility summary (named after ``out``'s stem)."""
+    stem = out.with_suffix("") if out.suffix.lower() == ".nc" else out
+    return {
+        "netcdf": out,
+        "csv": stem.with_name(f"{stem.name}.csv"),
+        "curves": stem.with_name(f"{stem.name}_curves.{figure_format}"),
+        "fragility": stem.with_name(f"{stem.name}_fragility.{figure_format}"),
+        "summary": stem.with_name(f"{stem.name}_fragility.json"),
+    }
+
+
+def _write_ida_csv(path: Path, ds) -> None:
+    """The IDA table, one row per run: record, scale, the IM (in its units, and in g for an
+    acceleration), PGA in g where the IM is another, the peaks, overturned and status."""
+    dims = ("record", "scale")
+    im = str(ds.attrs.get("im", "pga"))
+    im_units = str(ds["im"].attrs.get("units", ""))
+    columns = {"scale [-]": None, f"{im} [{im_units or '-'}]": ds["im"]}
+    if "im_g" in ds:
+        columns[f"{im} [g]"] = ds["im_g"]
+    if im != "pga":
+        columns["pga [g]"] = ds["pga_scaled"] / G
+    columns["max_theta_over_eta [-]"] = ds["max_theta_over_eta"]
+    columns["max_d_over_b [-]"] = ds["max_d_over_b"]
+    grids = {k: None if v is None else np.asarray(v.transpose(*dims)) for k, v in columns.items()}
+    collapse = np.asarray(ds["collapse"].transpose(*dims), bool)
+    status = np.asarray(ds["status"].transpose(*dims))
+    scales = np.asarray(ds["scale"], float)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["record", *columns, "overturned", "status"])
+        for i, record in enumerate(np.asarray(ds["record"])):
+            for j, scale in enumerate(scales):
+                values = [scale if g is None else g[i, j] for g in grids.values()]
+                w.writerow(
+                    [str(record), *(f"{float(v):.10g}" for v in values)]
+                    + ["true" if collapse[i, j] else "false", int(status[i, j])]
+                )
+
+
+def _ida_figures_and_summary(ds, files: dict[str, Path], title: str) -> list[str]:
+    """The IDA curves, the fragility figure and the fragility summary file; returns the lines
+    to print (the fit, or why it cannot be made)."""
     from .fragility import fragility
 
+    ax = plot.ida(ds)
+    ax.set_title(title, fontsize="medium")
+    _save(ax, files["curves"])
+    summary = {"ida": files["netcdf"].name, "command": ds.attrs.get("command", "")}
     try:
         frag = fragility(ds)
     except ValueError as err:
-        return f"fragility: not fitted ({err})"
-    return f"fragility: {frag!r}"
+        files.pop("fragility")
+        jsonio.write_json(files["summary"], {"fitted": False, "reason": str(err), **summary})
+        return [f"fragility: not fitted ({err})"]
+    jsonio.write_json(files["summary"], {"fitted": True, **frag.summary(), **summary})
+    ax = plot.fragility(frag, ds=ds)
+    ax.set_title(title, fontsize="medium")
+    _save(ax, files["fragility"])
+    return [f"fragility: {frag!r}"]
 
 
 def _ida(args: argparse.Namespace) -> int:
@@ -775,7 +856,13 @@ def _ida(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.is_dir():
         raise ValueError(f"--out {out} is a folder; give a file path such as {out / 'ida.nc'}.")
+    if out.suffix.lower() in (".csv", ".json", *(f".{fmt}" for fmt in FIGURE_FORMATS)):
+        raise ValueError(
+            f"--out {out} names the NetCDF file, and the {out.suffix} file is one of those "
+            f"written next to it; give a path ending in .nc, e.g. {out.with_suffix('.nc')}."
+        )
     _check_writable("--out", out.parent)  # before any run: a bad path loses no work
+    files = _ida_outputs(out, args.figure_format)
     scales = _parse_scales(args.scales)
     block = Block(b=args.b, h=args.h)  # raises ValueError on bad geometry
     # checked here too (rj.ida checks them all) so the error comes before the records load
@@ -815,6 +902,13 @@ def _ida(args: argparse.Namespace) -> int:
         f"({scales[0]:g} to {scales[-1]:g}) = {n_runs} runs -> {out}",
         flush=True,
     )
+    if args.model == "dem":
+        short = f"beta = {beta:.3g} s" + (
+            " (beta_DeJong, uncalibrated)" if args.beta is None else ""
+        )
+    else:
+        short = param
+    title = f"{args.model} {args.mode.replace('_', '-')}, block {args.b:g} x {args.h:g} m, {short}"
     ds = ida(
         block,
         motions,
@@ -826,13 +920,15 @@ def _ida(args: argparse.Namespace) -> int:
         gap=args.gap,
         tail=args.tail,
         chunk_size=args.chunk_size,
-        progress=True,
+        progress=args.progress,
         im=args.im,
     )
     ds.attrs["command"] = "rockjax ida " + " ".join(_ida_argv(args))
     if out.parent != Path(""):
         out.parent.mkdir(parents=True, exist_ok=True)
     ds.to_netcdf(out, engine="h5netcdf")
+    _write_ida_csv(files["csv"], ds)
+    fragility_lines = _ida_figures_and_summary(ds, files, title)
 
     collapse = np.asarray(ds["collapse"], bool)
     failed = int(np.sum(np.asarray(ds["status"]) != 0))
@@ -853,8 +949,10 @@ def _ida(args: argparse.Namespace) -> int:
         )
     else:
         print(f"no record collapsed the block up to scale {scales[-1]:g}", flush=True)
-    print(_fragility_summary(ds), flush=True)
-    print(f"wrote {out} in {time.perf_counter() - t_start:.1f} s", flush=True)
+    for line in fragility_lines:
+        print(line, flush=True)
+    names = ", ".join(str(path) for path in files.values())
+    print(f"wrote {names} in {time.perf_counter() - t_start:.1f} s", flush=True)
     if failed:
         print(f"warning: {failed} runs failed; see the 'status' variable", file=sys.stderr)
     return 0
@@ -869,6 +967,7 @@ def _ida_argv(args: argparse.Namespace) -> list[str]:
     if args.normalized:
         parts.append("--normalized")
     parts += ["--gap", f"{args.gap:g}", "--tail", f"{args.tail:g}", "--im", args.im]
+    parts += ["--figure-format", args.figure_format]
     return parts + ["--chunk-size", str(args.chunk_size), "--out", str(args.out)]
 
 
@@ -998,6 +1097,15 @@ def _calibrate(args: argparse.Namespace) -> int:
     e = None
     if target == "e":
         e = args.e if args.e is not None else (e_h if mode == "two_sided" else e_1sr)
+        if args.e is None and not e > 0.0:
+            # Eq. 2 (or 5) leaves its range for squat blocks: e_H < 0 is no restitution
+            which = "e_H (Eq. 2)" if mode == "two_sided" else "|e_1SR| (Eq. 5)"
+            raise ValueError(
+                f"the default target {which} = {e:.3g} is not a restitution coefficient for "
+                f"this squat block ({args.b:g} x {args.h:g} m, h/b = {args.h / args.b:.3g}): the "
+                "closed form holds for slender blocks. Give a measured value with --e, e.g. "
+                "--e 0.9."
+            )
     if e is not None:
         default = {"two_sided": " (default: e_H, Eq. 2)", "one_sided": " (default: |e_1SR|, Eq. 5)"}
         goal = f"e = {e:.4f}" + (default[mode] if args.e is None else "")

@@ -3,7 +3,7 @@
 Every (record, scale) pair is one run of :func:`rockjax.simulate_dem` or
 :func:`rockjax.simulate_housner` with ``throw=False``. The pairs are flattened and run in
 chunks of ``chunk_size``: one ``jit(vmap(...))`` per chunk from a Python loop, which bounds the
-memory and lets a progress line print between chunks. The last chunk is padded (with
+memory and lets a progress bar advance between chunks. The last chunk is padded (with
 zero-scale runs of the first record, dropped afterwards) to the same shape, so the batch
 compiles once.
 
@@ -41,8 +41,6 @@ from __future__ import annotations
 
 import datetime
 import math
-import sys
-import time
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -53,7 +51,8 @@ import numpy as np
 import xarray as xr
 from jaxtyping import ArrayLike, Float
 
-from ._checks import check_choice, check_nonnegative, check_positive, check_scales
+from . import _progress
+from ._checks import check_choice, check_nonnegative, check_positive, check_scalar, check_scales
 from ._types import ScalarLike
 from .block import Block
 from .constants import G
@@ -84,7 +83,7 @@ def ida(
     tail: ScalarLike = 2.0,
     t_end: ScalarLike | None = None,
     chunk_size: int = 256,
-    progress: bool = True,
+    progress: bool | None = None,
     devices: Sequence[jax.Device] | None = None,
     im: str = "pga",
 ) -> xr.Dataset:
@@ -111,7 +110,9 @@ def ida(
             parts, :mod:`rockjax.campaign`); it must not cut a record short.
         chunk_size: Runs per compiled batch; bounds the memory (about
             ``chunk_size * n_time * 8`` bytes per saved series), not the results.
-        progress: Print one line per chunk to stderr.
+        progress: A progress bar over the runs (tqdm, on stderr), advanced per chunk: None
+            (default) shows it when stderr is a terminal, True always (e.g. in a notebook or a
+            log), False never.
         devices: Devices to shard each chunk over (its runs split evenly, the records
             replicated; ``jax.sharding``); default every local device. With one device the
             chunks run as they are. The chunk size is rounded up to a multiple of the device
@@ -179,6 +180,7 @@ def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.
                 "model='dem' needs beta, the stiffness-proportional damping coefficient in s, "
                 "e.g. beta=float(rj.beta_dejong(block)) or beta=2e-3."
             )
+        check_scalar("beta", beta, "s", "ida runs one beta; call it once per value.")
         check_nonnegative("beta", beta, "s")
         beta = float(beta)  # a Python float: static under filter_jit, like the block
         dt_bound = stable_dt(block, beta, mode=mode, gap=gap)
@@ -194,6 +196,8 @@ def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.
                 f"the Housner model has no facade gap; got gap={gap} m. Use model='dem' or gap=0."
             )
         one_sided = mode == "one_sided"
+        if e is not None:
+            check_scalar("e", e, "[-]", "e.g. e=0.9, or e=None for the default.")
         e = None if e is None else float(e)
         if e is None:  # the simulator's default: Eq. (2) two-sided, |Eq. (5)| one-sided
             e_used = float(np.abs(e_isr(block.eta) if one_sided else e_housner(block.eta)))
@@ -341,7 +345,7 @@ def _plan(
     )
 
 
-def _run(plan: _Plan, place: _Placement, progress: bool) -> dict[str, np.ndarray]:
+def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.ndarray]:
     """Run the plan's chunks; the EDPs on the (record, scale) grid."""
     n_rec, n_scale = len(plan.records), plan.scales.size
     grids = {
@@ -350,9 +354,15 @@ def _run(plan: _Plan, place: _Placement, progress: bool) -> dict[str, np.ndarray
         "collapse": np.zeros((n_rec, n_scale), bool),
         "status": np.zeros((n_rec, n_scale), np.int32),
     }
-    start = time.perf_counter()
-    done = 0
+    bar = _progress.bar(progress, total=n_rec * n_scale, desc="rockjax.ida", unit="run")
+    seen: set[float] = set()
     for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
+        # the first chunk of a dt group compiles: say so while it runs
+        first = g.dt not in seen
+        seen.add(g.dt)
+        bar.set_postfix_str(
+            f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s" + (", compiling" if first else "")
+        )
         flat = np.arange(k * size, (k + 1) * size)
         real = flat < n_runs_g
         flat = np.where(real, flat, 0)  # padding: repeats of the group's first run, dropped
@@ -363,14 +373,9 @@ def _run(plan: _Plan, place: _Placement, progress: bool) -> dict[str, np.ndarray
         out = jax.device_get(out)
         for key in grids:
             grids[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
-        done += int(real.sum())
-        if progress:
-            print(
-                f"rockjax.ida: chunk {n + 1}/{len(plan.chunks)} (dt = {g.dt:g} s), "
-                f"{done}/{n_rec * n_scale} runs, {time.perf_counter() - start:.1f} s",
-                file=sys.stderr,
-                flush=True,
-            )
+        bar.set_postfix_str(f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s", refresh=False)
+        bar.update(int(real.sum()))
+    bar.close()
     return grids
 
 

@@ -8,18 +8,19 @@ raises ``ValueError`` naming the file, the line and the fix.
 
 from __future__ import annotations
 
+import codecs
 import math
 import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 
 from ._checks import check_choice, check_positive
 from .constants import G
-from .motion import GroundMotion
+from .motion import PLAUSIBLE_LIMIT_G, GroundMotion
 
 # A decimal number as Fortran and C print it: `.0050`, `0.005`, `5.0E-03`, `-.4524259E-02`,
 # `1.0D-03` (Fortran double-precision exponent).
@@ -177,95 +178,237 @@ def write_at2(
     Path(path).write_text("\n".join(lines) + "\n", encoding="ascii")
 
 
+CSV_UNITS = {"g": None, "m/s2": 1.0, "cm/s2": 0.01, "mm/s2": 0.001, "in/s2": 0.0254}
+"""Acceleration units :func:`read_csv` reads, and their factor to m/s^2 (``"g"``: its ``g``)."""
+
+
 def read_csv(
     path: str | os.PathLike,
     *,
-    units: Literal["g", "m/s2", "cm/s2"] = "g",
-    time_column: bool = True,
+    column: int | str | None = None,
+    time_column: bool | int | str = True,
+    units: Literal["g", "m/s2", "cm/s2", "mm/s2", "in/s2"] = "g",
     dt: float | None = None,
+    resample: float | None = None,
+    header: bool | None = None,
     delimiter: str | None = None,
     name: str | None = None,
     g: float = G,
     rtol: float = 1e-6,
 ) -> GroundMotion:
-    """Read a record from a plain text or CSV file: two columns ``t, a`` or one column ``a``.
+    """Read a record from a plain text or CSV file: a time column and one or more acceleration
+    columns (an OpenSees recorder file, a spreadsheet export), or a bare acceleration column.
 
-    Blank lines and lines starting with ``#`` are skipped; the first other line may be a
-    header (any line with a token that is not a number). With ``time_column=True`` the
-    times must be uniform to ``rtol`` (see :meth:`GroundMotion.from_time_series`); the first
-    time is taken as ``t = 0`` and, if it was not 0, kept in ``metadata["t_start"]``.
+    Layout. Columns are separated by commas, semicolons or blanks: by default the first data
+    line decides (a comma if it has one, else a semicolon, else any run of blanks), or give
+    ``delimiter=``. A ``#`` starts a comment that runs to the end of its line (as in
+    ``numpy.loadtxt``), and blank lines are skipped; a UTF-8 byte order mark (Excel's "CSV
+    UTF-8") is dropped, and UTF-16 files with a byte order mark are read. The first other line is a header (column names) when none of its
+    fields is a number, or when ``header=True``; every later line must be a data row with as
+    many numbers as the first one (one trailing separator is allowed): a row that does not
+    parse is an error naming its line, never skipped.
+
+    Columns. ``time_column`` picks the times [s]: ``True`` (the first column, as OpenSees
+    recorders write it with ``-time``), a 0-based index, a header name, or ``False`` for a file
+    without times (then pass ``dt``). ``column`` picks the acceleration: a 0-based index
+    (counting the time column; negative counts from the end), a header name, or ``None`` when
+    the file holds exactly one column besides the time; with several (an OpenSees recorder of
+    several nodes or DOFs) ``column`` must say which, and the error lists them.
+
+    Times. The first time is taken as ``t = 0`` and, if it was not 0 (OpenSees writes the end
+    of the first step, ``t = dt``), kept in ``metadata["t_start"]``. Times must increase. They
+    must be uniform to ``rtol`` (relative to the mean step) unless ``resample`` is given: a
+    variable-step analysis (OpenSees ``VariableTransient``, sub-stepping after a failed step)
+    raises an error that says how far the steps spread and which line has the worst. With
+    ``resample=dt_new`` the record is interpolated linearly onto ``t_start + k dt_new`` up to
+    the last time (``numpy.interp``; the samples at the new times lie on the straight lines
+    between the file's samples, so a peak between two new times is cut). No anti-alias filter
+    is applied: choose ``dt_new`` no longer than the file's typical step (the error message
+    proposes its median step), or low-pass the record first. ``metadata["resampled"]`` records
+    what was done. ``resample`` also works on a uniform file (then it is
+    :meth:`GroundMotion.resampled`).
 
     Args:
         path: The file.
-        units: Units of the acceleration column: ``"g"``, ``"m/s2"`` or ``"cm/s2"``.
-        time_column: True for ``t [s], a`` rows; False for ``a`` rows (then pass ``dt``).
-        dt: Sampling step [s] of a one-column file.
-        delimiter: Column separator; default any run of blanks, commas or semicolons.
+        column: The acceleration column: 0-based index, header name, or None (the only one).
+        time_column: The time column [s]: True (the first), a 0-based index, a header name, or
+            False (no times; pass ``dt``).
+        units: Units of the acceleration column: ``"g"``, ``"m/s2"``, ``"cm/s2"``, ``"mm/s2"``
+            or ``"in/s2"`` (an OpenSees model in kip, inch, second).
+        dt: Sampling step [s] of a file without a time column.
+        resample: Interpolate linearly onto this uniform step [s] (see Times); default None:
+            the file's step, which must then be uniform.
+        header: True if the first non-comment line is a header, False if it is data, None to
+            decide from its fields (a header has no field that is a number).
+        delimiter: Column separator; default from the first data line (see Layout).
         name: Record name; default the file stem.
         g: Standard gravity [m/s^2] for ``units="g"``.
-        rtol: Relative tolerance on the uniformity of the time column [-].
+        rtol: Relative tolerance on the uniformity of the time steps [-].
 
     Returns:
-        The record, accelerations in m/s^2.
+        The record, accelerations in m/s^2; ``metadata`` holds ``file``, ``units``, the
+        ``column`` read (and ``time_column``), the ``header`` line if any, ``t_start`` and
+        ``resampled`` where they apply.
 
     Raises:
-        ValueError: for a missing or misplaced ``dt``, a row with the wrong number of
-            columns, a token that is not a number, a NaN or infinite value, fewer than 2
-            rows or non-uniform times; the message names the file and the line.
+        ValueError: for a missing or misplaced ``dt``, an unknown or ambiguous column, a row
+            with the wrong number of columns, a field that is not a number, an empty field, a
+            NaN or infinite value in a column read, fewer than 2 rows, times that do not
+            increase, non-uniform times without ``resample``, or accelerations above 10 g in
+            the given ``units`` (a unit slip); the message names the file and the line.
     """
     path = Path(path)
-    check_choice("units", units, {"g", "m/s2", "cm/s2"})
+    check_choice("units", units, set(CSV_UNITS))
     check_positive("g", g, "m/s^2", "The default is standard gravity, 9.80665.")
-    if time_column and dt is not None:
+    check_positive("rtol", rtol, "[-]", "The default is 1e-6.", scalar=True)
+    if header is not None and not isinstance(header, bool):
         raise ValueError(
-            f"{path}: dt={dt} was given but time_column=True reads the times from the file. "
-            "Pass dt only with time_column=False."
+            f"header must be True, False or None (decide from the first line); got {header!r}."
         )
-    if not time_column:
+    for label, value, default in (("column", column, None), ("time_column", time_column, True)):
+        ok = isinstance(value, int | str | np.integer) and (
+            label == "time_column" or not isinstance(value, bool)
+        )
+        if not (ok or value is default):
+            raise ValueError(
+                f"{label} must be a 0-based column index or a header name"
+                + (" (True: the first column; False: no times)" if label == "time_column" else "")
+                + f"; got {label}={value!r}."
+            )
+    if time_column is not False and dt is not None:
+        raise ValueError(
+            f"{path}: dt={dt} was given but time_column={time_column!r} reads the times from "
+            "the file. Pass dt only with time_column=False (or resample=dt to change the step)."
+        )
+    if time_column is False:
         if dt is None:
             raise ValueError(
-                f"{path}: a one-column file needs its sampling step: pass dt=... in seconds, "
+                f"{path}: a file without times needs its sampling step: pass dt=... in seconds, "
                 "or time_column=True if the first column holds the times."
             )
-        check_positive("dt", dt, "s", "Use the record's sampling step, e.g. dt=0.01.")
-    ncols = 2 if time_column else 1
-    columns = "t [s], a" if time_column else "a"
-
-    header, rows = None, []
-    for lineno, line in enumerate(_read_lines(path), start=1):
-        text = line.strip()
-        if not text or text.startswith("#"):
-            continue
-        split = r"[\s,;]+" if delimiter is None else re.escape(delimiter)
-        tokens = [tok.strip() for tok in re.split(split, text) if tok.strip()]
-        if header is None and not rows and not all(_is_number_or_non_finite(t) for t in tokens):
-            header = text
-            continue
-        row = [_to_float(path, lineno, tok) for tok in tokens]
-        if len(row) != ncols:
-            raise ValueError(
-                f"{path}, line {lineno}: {len(row)} values, expected {ncols} ({columns}). "
-                "Check delimiter= and time_column=."
-            )
-        rows.append(row)
-    if len(rows) < 2:
-        raise ValueError(
-            f"{path}: found {len(rows)} data rows; a record needs at least 2. "
-            "Check that the file holds the series, one sample per line."
+        check_positive("dt", dt, "s", "Use the record's sampling step, e.g. dt=0.01.", scalar=True)
+    if resample is not None:
+        check_positive(
+            "resample",
+            resample,
+            "s",
+            "It is the new uniform step, e.g. resample=0.005.",
+            scalar=True,
         )
-    data = np.asarray(rows, dtype=float)
-    factor = {"g": g, "m/s2": 1.0, "cm/s2": 0.01}[units]
-    name = path.stem if name is None else name
-    meta = {"file": path.name, "units": units}
-    if header is not None:
-        meta["header"] = header
-    if time_column:
-        motion = GroundMotion.from_time_series(data[:, 0], data[:, 1] * factor, name, rtol=rtol)
-        if data[0, 0] != 0.0:
-            meta["t_start"] = repr(float(data[0, 0]))
+
+    table = _read_table(path, header, delimiter)
+    n_cols = table.values.shape[1]
+    t_idx = None if time_column is False else _column_index(path, table, time_column, "time_column")
+    if n_cols == 1 and t_idx is not None:
+        raise ValueError(
+            f"{path}, line {table.lines[0]}: 1 value, expected 2 (t [s], a). If the file "
+            "holds accelerations only, pass time_column=False and dt=... in seconds."
+        )
+    if column is None:
+        others = [j for j in range(n_cols) if j != t_idx]
+        if len(others) != 1:
+            expected = "t [s], a" if t_idx is not None else "a"
+            raise ValueError(
+                f"{path}, line {table.lines[0]}: {n_cols} values, expected "
+                f"{1 if t_idx is None else 2} ({expected}); the columns are "
+                f"{_describe_columns(table, t_idx)}. Pass column= (a 0-based index or a header "
+                "name) to pick the acceleration, or check delimiter= and time_column=."
+            )
+        a_idx = others[0]
     else:
-        motion = GroundMotion(ag=data[:, 0] * factor, dt=float(dt), name=name)
-    return motion.with_metadata(**meta)
+        a_idx = _column_index(path, table, column, "column")
+        if a_idx == t_idx:
+            raise ValueError(
+                f"{path}: column={column!r} is also the time column; pick an acceleration "
+                f"column: {_describe_columns(table, t_idx)}."
+            )
+    if len(table.lines) < 2:
+        raise ValueError(_too_few_rows(path, len(table.lines)))
+    for j in (a_idx,) if t_idx is None else (t_idx, a_idx):
+        bad = np.flatnonzero(~np.isfinite(table.values[:, j]))
+        if bad.size:
+            lineno = table.lines[bad[0]]
+            raise ValueError(
+                f"{path}, line {lineno}: non-finite sample {table.tokens[bad[0]][j]!r} in column "
+                f"{_column_label(table, j)} ({bad.size} in all). Records must be finite: clean "
+                "or trim the record first."
+            )
+
+    factor = g if units == "g" else CSV_UNITS[units]
+    raw = table.values[:, a_idx]
+    peak = float(np.max(np.abs(raw))) * factor
+    if peak > PLAUSIBLE_LIMIT_G * G:
+        suggest = " or ".join(
+            f"units={u!r}"
+            for u in ("m/s2", "cm/s2", "mm/s2")
+            if u != units and float(np.max(np.abs(raw))) * CSV_UNITS[u] <= PLAUSIBLE_LIMIT_G * G
+        )
+        raise ValueError(
+            f"{path}: column {_column_label(table, a_idx)} peaks at {peak / G:.3g} g read with "
+            f"units={units!r}, above the plausibility limit of {PLAUSIBLE_LIMIT_G:g} g for a "
+            f"ground acceleration: the file is probably in other units. Pass "
+            f"{suggest or 'the units the file holds'}."
+        )
+    name = path.stem if name is None else name
+    meta = {"file": path.name, "units": units, "column": _column_name(table, a_idx)}
+    if table.header is not None:
+        meta["header"] = table.header
+    if t_idx is None:
+        motion = GroundMotion(ag=raw * factor, dt=float(dt), name=name)
+        if resample is not None:
+            motion = _resample_uniform(path, motion, float(resample), meta)
+        return motion.with_metadata(**meta)
+
+    meta["time_column"] = _column_name(table, t_idx)
+    t = table.values[:, t_idx]
+    steps = np.diff(t)
+    back = np.flatnonzero(steps <= 0)
+    if back.size:
+        k = int(back[0])
+        raise ValueError(
+            f"{path}, line {table.lines[k + 1]}: the time column t of record {name!r} must "
+            f"increase, but t = {t[k + 1]:.6g} s follows t = {t[k]:.6g} s on line "
+            f"{table.lines[k]} (steps that do not increase: {back.size}). Sort the rows by "
+            "time and drop repeated times, or check time_column= (it reads column "
+            f"{_column_label(table, t_idx)})."
+        )
+    if t[0] != 0.0:
+        meta["t_start"] = repr(float(t[0]))
+    mean = (t[-1] - t[0]) / (t.size - 1)
+    off = np.abs(steps - mean) > rtol * mean
+    if resample is None and off.any():
+        k = int(np.argmax(np.abs(steps - mean)))
+        median = float(np.median(steps))
+        raise ValueError(
+            f"{path}: the time column t of record {name!r} is not uniformly sampled: the steps "
+            f"range from {steps.min():.6g} to {steps.max():.6g} s (mean {mean:.6g} s, median "
+            f"{median:.6g} s), and {int(off.sum())} of {steps.size} differ from the mean by "
+            f"more than rtol={rtol:g}; the worst, line {table.lines[k]} (t = {t[k]:.6g} s) to "
+            f"line {table.lines[k + 1]} (t = {t[k + 1]:.6g} s), is {steps[k]:.6g} s. Pass "
+            f"resample={median:.4g} to interpolate it linearly onto a uniform step (e.g. the "
+            "median step), or a larger rtol= if the spread is round-off in the printed times."
+        )
+    if resample is None:
+        # the times are printed numbers: 12 digits of their mean step are all it carries (0.01,
+        # not 0.009999999999999998)
+        motion = GroundMotion(ag=raw * factor, dt=float(f"{mean:.12g}"), name=name)
+        return motion.with_metadata(**meta)
+    dt_new = float(resample)
+    if dt_new > t[-1] - t[0]:
+        raise ValueError(
+            f"{path}: resample={dt_new} s is longer than the record ({t[-1] - t[0]:.6g} s); "
+            "give the new step in seconds, e.g. resample=0.005."
+        )
+    n_new = int(math.floor((t[-1] - t[0]) / dt_new + 1e-9)) + 1
+    t_new = t[0] + dt_new * np.arange(n_new)
+    ag = np.interp(t_new, t, raw * factor)
+    spread = (
+        f"steps {steps.min():.6g} to {steps.max():.6g} s" if off.any() else f"step {mean:.6g} s"
+    )
+    meta["resampled"] = (
+        f"linear interpolation of {t.size} samples ({spread}) onto dt = {dt_new!r} s"
+    )
+    return GroundMotion(ag=ag, dt=dt_new, name=name).with_metadata(**meta)
 
 
 def rotate(
@@ -342,11 +485,20 @@ def rotate(
 
 # --------------------------------------------------------------------------------- helpers
 def _read_lines(path: Path) -> list[str]:
-    # latin-1 decodes any byte: station names in old files are not always ASCII
-    text = path.read_bytes().decode("latin-1")
+    raw = path.read_bytes()
+    if raw.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):  # Excel's "Unicode text"
+        text = raw.decode("utf-16")
+    else:
+        # a UTF-8 byte order mark (Excel's "CSV UTF-8") is no part of the first field; latin-1
+        # decodes any byte: station names in old files are not always ASCII or UTF-8
+        raw = raw.removeprefix(codecs.BOM_UTF8)
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            text = raw.decode("latin-1")
     if not text.strip():
         raise ValueError(f"{path}: the file is empty. Check the download or the path.")
-    return text.splitlines()  # handles LF, CRLF and CR
+    return text.removeprefix("\ufeff").splitlines()  # handles LF, CRLF and CR
 
 
 def _parse_npts_dt(path: Path, lineno: int, line: str) -> tuple[int, float]:
@@ -406,6 +558,177 @@ def _read_values(path: Path, lines: list[str], first: int) -> tuple[np.ndarray, 
             values.extend(_to_float(path, lineno, tok) for tok in tokens)
             last = lineno
     return np.asarray(values, dtype=float), last
+
+
+class _Table(NamedTuple):
+    """The numbers of a text table, with the (1-based) line of every row and its fields."""
+
+    values: np.ndarray  # (rows, columns); NaN/inf kept, checked per column read
+    lines: list[int]
+    tokens: list[list[str]]
+    header: str | None
+    names: list[str] | None
+
+
+_COMMENT_RE = re.compile(r"#.*$")  # as numpy.loadtxt: a comment runs from any # to the line end
+
+
+def _read_table(path: Path, header: bool | None, delimiter: str | None) -> _Table:
+    rows: list[list[str]] = []
+    lines: list[int] = []
+    head_text = None
+    split = None
+    for lineno, line in enumerate(_read_lines(path), start=1):
+        text = _COMMENT_RE.sub("", line).strip()
+        if not text:
+            continue
+        if head_text is None and not rows:
+            if header is None:  # a header has no field that reads as a number
+                if delimiter is None:
+                    fields = [tok for tok in re.split(r"[\s,;]+", text) if tok]
+                else:
+                    fields = _splitter(text, delimiter)(text)
+                is_header = not any(_is_number_or_non_finite(tok) for tok in fields)
+            else:
+                is_header = header
+            if is_header:
+                head_text = text
+                continue
+        if split is None:  # the first data row decides the separator, not the header
+            split = _splitter(text, delimiter)
+        tokens = split(text)
+        if rows and len(tokens) != len(rows[0]):
+            raise ValueError(
+                f"{path}, line {lineno}: {len(tokens)} values, expected {len(rows[0])} as on line "
+                f"{lines[0]}. Fix or delete the row, or check delimiter=."
+            )
+        for j, tok in enumerate(tokens):
+            if tok == "":
+                raise ValueError(
+                    f"{path}, line {lineno}: field {j} is empty. Fill it in or delete the row "
+                    "(or check delimiter=)."
+                )
+            if not _is_number_or_non_finite(tok):
+                hint = ""
+                if re.fullmatch(r"[-+]?\d*,\d+", tok):
+                    hint = " Decimal commas are not read: replace them by points."
+                elif not rows and header is None:
+                    hint = (
+                        " If this line is a header with a number in it, pass header=True; a "
+                        "second header line can be commented out with #."
+                    )
+                raise ValueError(
+                    f"{path}, line {lineno}: {tok!r} is not a number. Fix or delete it (samples "
+                    f"are decimal numbers such as -.4524259E-02).{hint}"
+                )
+        rows.append(tokens)
+        lines.append(lineno)
+    if not rows:
+        raise ValueError(_too_few_rows(path, 0))
+    values = np.array([[_number(tok) for tok in row] for row in rows], dtype=float)
+    names = None if head_text is None else _header_names(head_text, delimiter, len(rows[0]))
+    return _Table(values, lines, rows, head_text, names)
+
+
+def _too_few_rows(path: Path, n: int) -> str:
+    return (
+        f"{path}: found {n} data rows; a record needs at least 2. "
+        "Check that the file holds the series, one sample per line."
+    )
+
+
+def _splitter(text: str, delimiter: str | None):
+    if delimiter is None:
+        # a semicolon first: files with decimal commas separate their columns by semicolons
+        delimiter = next((d for d in (";", ",") if d in text), " ")
+    if delimiter == " ":  # any run of blanks and tabs
+        return lambda s: s.split()
+
+    def split(s: str) -> list[str]:
+        fields = [f.strip() for f in s.split(delimiter)]
+        if len(fields) > 1 and fields[-1] == "":  # one trailing separator
+            fields.pop()
+        return fields
+
+    return split
+
+
+def _header_names(text: str, delimiter: str | None, n_cols: int) -> list[str] | None:
+    """The header's column names, or None when they cannot be matched to the columns."""
+    tries = [delimiter] if delimiter is not None else [",", ";", "\t", " "]
+    for d in tries:
+        names = _splitter(text, d)(text)
+        if len(names) == n_cols:
+            return names
+    return None
+
+
+def _column_index(path: Path, table: _Table, spec, label: str) -> int:
+    n = table.values.shape[1]
+    if spec is True:
+        return 0
+    if isinstance(spec, str):
+        if table.names is None:
+            why = (
+                "the file has no header"
+                if table.header is None
+                else f"its header {table.header!r} does not split into {n} names"
+            )
+            raise ValueError(
+                f"{path}: {label}={spec!r} names a column, but {why}. Give a 0-based index "
+                f"instead: {_describe_columns(table, None)}."
+            )
+        matches = [j for j, nm in enumerate(table.names) if nm == spec]
+        if not matches:
+            matches = [j for j, nm in enumerate(table.names) if nm.lower() == spec.lower()]
+        if len(matches) != 1:
+            what = "is not a column name" if not matches else "names several columns"
+            raise ValueError(
+                f"{path}: {label}={spec!r} {what}; the columns are "
+                f"{_describe_columns(table, None)}."
+            )
+        return matches[0]
+    j = int(spec)
+    if not -n <= j < n:
+        raise ValueError(
+            f"{path}: {label}={j} is out of range: the file has {n} columns, "
+            f"{_describe_columns(table, None)} (0-based)."
+        )
+    return j % n
+
+
+def _number(token: str) -> float:
+    """A field already checked by :func:`_is_number_or_non_finite` as a float (NaN, inf kept;
+    an overflowing exponent gives inf, refused where the column is read)."""
+    return float(token.replace("D", "E").replace("d", "e"))
+
+
+def _column_label(table: _Table, j: int) -> str:
+    return f"{j} ({table.names[j]!r})" if table.names is not None else str(j)
+
+
+def _column_name(table: _Table, j: int) -> str:
+    return table.names[j] if table.names is not None else str(j)
+
+
+def _describe_columns(table: _Table, t_idx: int | None) -> str:
+    parts = []
+    for j in range(table.values.shape[1]):
+        text = _column_label(table, j)
+        parts.append(text + (" [time]" if j == t_idx else ""))
+    return ", ".join(parts)
+
+
+def _resample_uniform(path: Path, motion: GroundMotion, dt_new: float, meta: dict) -> GroundMotion:
+    if dt_new > motion.duration:
+        raise ValueError(
+            f"{path}: resample={dt_new} s is longer than the record ({motion.duration:.6g} s); "
+            "give the new step in seconds, e.g. resample=0.005."
+        )
+    meta["resampled"] = (
+        f"linear interpolation of {motion.n} samples (step {motion.dt!r} s) onto dt = {dt_new!r} s"
+    )
+    return motion.resampled(dt_new)
 
 
 def _is_number_or_non_finite(token: str) -> bool:

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
@@ -59,6 +62,72 @@ class Response(eqx.Module):
     energy: Float[Array, " time"] | None = None
     extras: dict = eqx.field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        """One line: model, block, duration, peak ``|theta|/eta``, overturned, status."""
+        return _summary(self)
+
+    def to_dataframe(self):
+        """The history as a ``pandas.DataFrame``, one row per sample (one run only).
+
+        The index is ``"t [s]"``; the columns carry their units in their names:
+        ``"theta [rad]"``, ``"theta_dot [rad/s]"``, ``"d [m]"``, ``"theta/eta [-]"``,
+        ``"d/b [-]"``, ``"energy [J]"`` (when saved), and the model's per-sample extras whose
+        units are known: DEM ``"x [m]"``, ``"y [m]"`` (centroid); Housner ``"n_impacts [-]"``
+        (impacts so far), ``"t_last_impact [s]"``, ``"pivot [-]"`` (+1 or -1). Contact forces
+        and other per-contact series stay in ``extras``. ``df.attrs`` holds the run's scalars:
+        ``model``, ``overturned``, ``status``, ``status_message``, ``theta_max [rad]``,
+        ``eta [rad]`` and ``b [m]``. Write it with ``df.to_csv(path)``.
+
+        Returns:
+            The ``pandas.DataFrame`` (pandas comes with xarray, a rockjax dependency).
+
+        Raises:
+            ValueError: for a batch of runs (from ``vmap``; index one run first,
+                e.g. ``jax.tree.map(lambda x: x[i], resp)``) or inside ``jit``.
+        """
+        import pandas as pd
+
+        t = _concrete(self.t)
+        if t is None:
+            raise ValueError(
+                "Response.to_dataframe needs concrete values: call it outside jit/vmap."
+            )
+        if t.ndim != 1:
+            raise ValueError(
+                f"Response.to_dataframe takes one run; this Response holds a batch (t has shape "
+                f"{t.shape}). Pick run i first: jax.tree.map(lambda x: x[i], resp)."
+            )
+        columns = {
+            "theta [rad]": self.theta,
+            "theta_dot [rad/s]": self.theta_dot,
+            "d [m]": self.d,
+            "theta/eta [-]": self.theta_over_eta,
+            "d/b [-]": self.d_over_b,
+        }
+        if self.energy is not None:
+            columns["energy [J]"] = self.energy
+        for key, unit in _EXTRA_UNITS.items():
+            value = self.extras.get(key)
+            if value is not None and np.shape(value) == t.shape:
+                columns[f"{key} [{unit}]"] = value
+        df = pd.DataFrame(
+            {name: np.asarray(v, dtype=float) for name, v in columns.items()},
+            index=pd.Index(t, name="t [s]"),
+        )
+        status = int(np.asarray(self.status))
+        df.attrs.update(
+            model=_model(self),
+            overturned=bool(np.asarray(self.overturned)),
+            status=status,
+            status_message=STATUS_MESSAGES.get(status, "unknown status"),
+            **{
+                "theta_max [rad]": float(np.asarray(self.theta_max)),
+                "eta [rad]": float(np.asarray(self.eta)),
+                "b [m]": float(np.asarray(self.b)),
+            },
+        )
+        return df
+
     @property
     def d_over_b(self):
         """Top displacement over thickness, ``d/b`` [-]."""
@@ -105,6 +174,60 @@ class Response(eqx.Module):
             if n <= amp.size:
                 out[n - 1] = e_exp(amp[n - 1], th0, eta, n)
         return out
+
+
+# Per-sample extras of the simulators whose units are known, for Response.to_dataframe.
+_EXTRA_UNITS = {"x": "m", "y": "m", "n_impacts": "-", "t_last_impact": "s", "pivot": "-"}
+
+
+def _concrete(x):
+    """``x`` as a NumPy array, or None for a tracer (inside jit/vmap/grad)."""
+    try:
+        return np.asarray(x)
+    except (TypeError, jax.errors.TracerArrayConversionError):
+        return None
+
+
+def _model(resp: Response) -> str:
+    """The simulator behind a Response, from the extras each one saves."""
+    if "n_impacts" in resp.extras:
+        return "Housner"
+    if "d_max" in resp.extras:
+        return "DEM"
+    return "model unknown"
+
+
+def _summary(resp: Response) -> str:
+    values = [_concrete(x) for x in (resp.t, resp.theta_max, resp.eta, resp.b)]
+    values += [_concrete(resp.overturned), _concrete(resp.status)]
+    if any(v is None for v in values):  # traced: the structure is all there is to show
+        return eqx.tree_pformat(resp)
+    t, theta_max, eta, b, overturned, status = values
+    ratio = theta_max / eta
+    parts = [_model(resp)]
+    if np.ptp(eta) == 0 and np.ptp(b) == 0:
+        b0, eta0 = float(b.flat[0]), float(eta.flat[0])
+        parts.append(f"block {b0:.4g} x {b0 / math.tan(eta0):.4g} m")
+    n_t = t.shape[-1]
+    t_row = t.reshape(-1, n_t)[0]
+    span = f"{float(t_row[-1] - t_row[0]):.4g} s in {n_t} samples"
+    if t.ndim == 1:
+        standing = "overturned" if bool(overturned) else "standing"
+        code = int(status)
+        text = STATUS_MESSAGES.get(code, "unknown status").split(":")[0]
+        head = ", ".join(parts)
+        return (
+            f"Response({head}, {span}: peak |theta|/eta {float(ratio):.4g}, {standing}, "
+            f"status {code} ({text}))"
+        )
+    n_runs = int(np.prod(t.shape[:-1]))
+    parts.insert(1, f"batch {t.shape[:-1]} of {n_runs} runs")
+    head = ", ".join(parts)
+    return (
+        f"Response({head}, {span}: peak |theta|/eta {np.nanmin(ratio):.4g} to "
+        f"{np.nanmax(ratio):.4g}, {int(np.sum(overturned))} overturned, "
+        f"{int(np.sum(status != STATUS_OK))} with status != 0)"
+    )
 
 
 def e_exp(theta_n, theta0, eta, n):

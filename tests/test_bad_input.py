@@ -329,7 +329,6 @@ def test_ground_motion_refuses(case: Bad):
 # ----------------------------------------------------------------------------- simulators
 
 _H, _D = rj.simulate_housner, rj.simulate_dem
-_DEM_OWNER = "lead (rockjax/dem.py)"
 
 SIMULATOR_CASES = [
     _case(
@@ -613,9 +612,6 @@ def test_dem_nan_in_record_names_the_record():
 # ----------------------------------------------------------------------------- IDA
 
 
-_IDA_OWNER = "helper C (rockjax/ida.py)"
-
-
 def _ida(records=(GM,), scales=(0.5, 1.0), **kw):
     kw = {"beta": 2e-3, "progress": False} | kw
     return rj.ida(BLOCK, list(records), scales, **kw)
@@ -665,8 +661,6 @@ IDA_CASES = [
         lambda: _ida(beta=np.array([1e-3, 2e-3])),
         r"\bbeta\b",
         r"one number",
-        owner=_IDA_OWNER,
-        what="an array beta fails in float(beta) with a TypeError",
     ),
     _case("dem-beta-text", lambda: _ida(beta="2e-3"), r"\bbeta\b", r"quotes"),
     _case(
@@ -674,8 +668,6 @@ IDA_CASES = [
         lambda: _ida(model="housner", beta=None, e="0.9"),
         r"\be\b",
         r"quotes",
-        owner=_IDA_OWNER,
-        what="e='0.9' is accepted (float('0.9')) where a number is expected",
     ),
     _case(
         "housner-e-above-1",
@@ -1127,8 +1119,6 @@ def test_records_load_refuses(tmp_path):
 # Each bad invocation exits with status 2 and one "error: ..." line on stderr before any
 # computation; argparse's own refusals (a flag's type) exit through SystemExit(2).
 
-_CLI_OWNER = "helper C (rockjax/cli.py)"
-
 
 @pytest.fixture(scope="module")
 def at2_file(tmp_path_factory):
@@ -1326,9 +1316,8 @@ CLI_CASES = [
         ["calibrate", "--b", "1", "--h", "0.5", "--out", "{tmp}/c"],
         r"--e",
         r"e_H",
-        _CLI_OWNER,
-        "a squat block's default e_H = -0.2 goes to fit_beta, whose error names its e= (the "
-        "user gave no --e): check e_H > 0 first and ask for --e",
+        None,
+        "",
     ),
     (["demo", "--n-beta", "1", "--out", "{tmp}/d"], r"--n-beta", r">= 2", None, ""),
     (["demo", "--b", "nan", "--out", "{tmp}/d"], r"\bb\b", r"b=0\.25", None, ""),

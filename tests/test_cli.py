@@ -168,6 +168,16 @@ def test_bad_input_is_one_clean_error_line(tmp_path, capsys, args, match):
     assert not out.exists()
 
 
+def test_calibrate_squat_block_asks_for_e(tmp_path, capsys):
+    """A squat block (h/b = 0.5): Eq. 2 gives e_H = 1 - 1.5 sin^2(eta) = 1 - 1.5 * 0.8 = -0.2,
+    no restitution coefficient; the command asks for --e instead of passing it on."""
+    rc = main(["calibrate", "--b", "1", "--h", "0.5", "--out", str(tmp_path / "c")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.startswith("error: ") and err.count("\n") == 1
+    assert "e_H (Eq. 2) = -0.2" in err and "--e" in err, err
+    assert not (tmp_path / "c").exists()
+
+
 def test_out_must_be_a_folder(tmp_path, capsys):
     target = tmp_path / "a_file"
     target.write_text("")

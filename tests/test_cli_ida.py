@@ -2,7 +2,9 @@
 NetCDF that `rj.ida` returns, prints a summary, and rejects bad input with `error: ...`, exit 2.
 """
 
+import csv
 import importlib.util
+import json
 
 import numpy as np
 import pytest
@@ -10,7 +12,9 @@ import xarray as xr
 from helpers import run_cli
 
 import rockjax as rj
+from rockjax.constants import G
 
+CSV_RTOL = 1e-9  # the CSV prints 10 significant digits: half a unit of the 10th is 5e-10
 SCALES = "0.1,0.5,5"  # 0.1: the block does not even uplift; 5: both pulses overturn it
 
 
@@ -36,7 +40,7 @@ def at2_files(tmp_path_factory):
 def dem_run(at2_files, tmp_path_factory):
     out = tmp_path_factory.mktemp("ida") / "sub" / "ida.nc"
     argv = ["ida", "--b", 0.25, "--h", 3, "--records", *at2_files, "--model", "dem"]
-    argv += ["--mode", "two_sided", "--scales", SCALES, "--tail", 0.5, "--out", out]
+    argv += ["--mode", "two_sided", "--scales", SCALES, "--tail", 0.5, "--progress", "--out", out]
     rc, stdout, stderr = _run(argv)
     return rc, stdout, stderr, out
 
@@ -63,19 +67,75 @@ def test_dem_writes_netcdf_and_summary(dem_run):
     assert f"collapsed: {int(collapse.sum())}" in stdout
     lowest = np.asarray(rj.collapse_intervals(ds).lowest)
     assert f"min {np.min(lowest):.4g}, median {np.median(lowest):.4g}" in stdout
-    assert "rockjax.ida: chunk 1/1 (dt = 0.01 s), 6/6 runs" in stderr
+    assert "rockjax.ida" in stderr and "6/6" in stderr and "chunk 1/1, dt = 0.01 s" in stderr
+
+
+def test_dem_writes_csv_figures_and_fragility_summary(dem_run, at2_files):
+    """Next to the NetCDF: the IDA table (CSV), the two figures (PNG) and the fragility
+    summary (JSON), each checked against the Dataset and, for the IM, against the records
+    read back from their files."""
+    rc, stdout, stderr, out = dem_run
+    assert rc == 0, stderr
+    with xr.open_dataset(out, engine="h5netcdf") as ds:
+        ds = ds.load()
+    with (out.parent / "ida.csv").open(newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert list(rows[0]) == [
+        "record",
+        "scale [-]",
+        "pga [m/s^2]",
+        "pga [g]",
+        "max_theta_over_eta [-]",
+        "max_d_over_b [-]",
+        "overturned",
+        "status",
+    ]
+    assert [(r["record"], float(r["scale [-]"])) for r in rows] == [
+        (name, s) for name in ("ricker", "sine") for s in (0.1, 0.5, 5.0)
+    ]
+    # the IM: the scale times the record's peak |ag|, from the AT2 file read here
+    pga = {p.stem: float(np.max(np.abs(rj.read_at2(p).ag))) for p in at2_files}
+    for r in rows:
+        expected = float(r["scale [-]"]) * pga[r["record"]]
+        assert float(r["pga [m/s^2]"]) == pytest.approx(expected, rel=CSV_RTOL)
+        assert float(r["pga [g]"]) == pytest.approx(expected / G, rel=CSV_RTOL)
+    for var, col in (("max_theta_over_eta", "max_theta_over_eta [-]"), ("max_d_over_b", None)):
+        col = col or f"{var} [-]"
+        got = np.array([float(r[col]) for r in rows]).reshape(2, 3)
+        np.testing.assert_allclose(got, ds[var].transpose("record", "scale"), rtol=CSV_RTOL)
+    overturned = np.array([r["overturned"] == "true" for r in rows]).reshape(2, 3)
+    np.testing.assert_array_equal(overturned, ds["collapse"])
+    assert {r["status"] for r in rows} == {"0"}
+    for name in ("ida_curves.png", "ida_fragility.png"):
+        assert (out.parent / name).read_bytes().startswith(b"\x89PNG\r\n\x1a\n"), name
+    summary = json.loads((out.parent / "ida_fragility.json").read_text())
+    assert summary["fitted"] is True and summary["im"] == "pga" and summary["ida"] == "ida.nc"
+    assert summary["median_g"] == pytest.approx(summary["median"] / G, rel=1e-12)
+    assert summary["median_ci_g"][0] <= summary["median_g"] <= summary["median_ci_g"][1]
+    assert summary["command"] == ds.attrs["command"]
+    frag = rj.fragility(ds)  # the same fit, from the Dataset written
+    assert summary["median"] == pytest.approx(frag.median, rel=1e-12)
+    assert summary["beta_log"] == pytest.approx(frag.beta_log, rel=1e-12)
+    assert "ida.csv" in stdout and "ida_fragility.json" in stdout
 
 
 def test_housner_chunks_and_e(at2_files, tmp_path):
     out = tmp_path / "h.nc"
     argv = ["ida", "--records", at2_files[0], "--model", "housner", "--e", 0.9]
     argv += ["--scales", "0.1:3:2", "--chunk-size", 1, "--tail", 0.5, "--out", out]
+    argv += ["--figure-format", "pdf"]
     rc, stdout, stderr = _run(argv)
     assert rc == 0, stderr
-    assert "rockjax.ida: chunk 2/2" in stderr
+    assert stderr == ""  # no progress bar: stderr is no terminal here, and --progress not given
     with xr.open_dataset(out, engine="h5netcdf") as ds:
         assert ds.attrs["model"] == "housner" and ds.attrs["e"] == 0.9
         assert ds.sizes == {"record": 1, "scale": 2}
+    # vector figures on request; one record gives no fragility fit, and the summary says why
+    assert (tmp_path / "h_curves.pdf").read_bytes().startswith(b"%PDF")
+    assert not (tmp_path / "h_fragility.pdf").exists()
+    summary = json.loads((tmp_path / "h_fragility.json").read_text())
+    assert summary["fitted"] is False and summary["reason"] and summary["ida"] == "h.nc"
+    assert "fragility: not fitted (" in stdout
 
 
 def test_folder_of_at2(at2_files):
@@ -125,6 +185,11 @@ def test_bad_records_and_out(tmp_path, at2_files):
     assert rc == 2 and "is a folder" in stderr
     rc, _, stderr = _run(["ida", "--records", at2_files[0], "--model", "fem", "--out", "x.nc"])
     assert rc == 2 and "invalid choice" in stderr  # argparse
+    # --out names the NetCDF: a name the side files take would be overwritten by one of them
+    rc, _, stderr = _run(["ida", "--records", at2_files[0], "--out", tmp_path / "ida.csv"])
+    assert rc == 2 and "give a path ending in .nc" in stderr, stderr
+    rc, _, stderr = _run(["ida", "--records", at2_files[0], "--figure-format", "jpg", "--out", "x"])
+    assert rc == 2 and "invalid choice" in stderr
 
 
 def test_demo_still_parses():

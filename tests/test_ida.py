@@ -7,7 +7,7 @@ import xarray as xr
 
 import rockjax as rj
 from rockjax.constants import G
-from rockjax.response import STATUS_NONFINITE, STATUS_OK
+from rockjax.response import STATUS_BAD_INPUT, STATUS_NONFINITE, STATUS_OK
 
 BATCH_RTOL = 1e-12
 """vmap vs a loop of single runs: the same float64 operations, up to XLA's fusion choices."""
@@ -117,9 +117,18 @@ def test_failed_run_is_flagged_and_batch_kept(housner_ds, capsys):
     # Reference: the batch without the failing scale. A scale of 1e308 overflows the record to
     # inf inside the run (the scale itself is finite, so it passes the input checks).
     scales = np.array([0.3, 0.9, 1e308])
-    ds = rj.ida(rj.Block(**SMALL), _records(), scales, model="housner", tail=0.5, chunk_size=4)
-    assert "chunk 2/2" in capsys.readouterr().err  # progress=True prints one line per chunk
-    np.testing.assert_array_equal(ds["status"][:, 2], [STATUS_NONFINITE] * 2)
+    ds = rj.ida(
+        rj.Block(**SMALL),
+        _records(),
+        scales,
+        model="housner",
+        tail=0.5,
+        chunk_size=4,
+        progress=True,
+    )
+    assert "chunk 2/2" in capsys.readouterr().err  # the bar advances per chunk
+    # the overflowed record is a bad input of that run, flagged before it runs
+    np.testing.assert_array_equal(ds["status"][:, 2], [STATUS_BAD_INPUT] * 2)
     assert np.all(np.isnan(ds["max_theta_over_eta"][:, 2]))
     assert not ds["collapse"][:, 2].any()
     np.testing.assert_array_equal(ds["status"][:, :2], STATUS_OK)
@@ -273,3 +282,18 @@ def test_intensity_measures(housner_ds):
     np.testing.assert_allclose(pgv["im"], pgv["pgv"].values[:, None] * SCALES, rtol=1e-15)
     with pytest.raises(ValueError, match="im must be 'pga', 'pgv' or 'sa\\(T\\)'"):
         rj.ida(block, _records(), SCALES, im="sa", **kw)
+
+
+def test_progress_bar_per_chunk(dem_ds, capsys):
+    """A tqdm bar over the runs on request, advanced per chunk; none by default when stderr is
+    not a terminal (as under pytest); the results do not depend on it."""
+    block = rj.Block(**SMALL)
+    kw = dict(model="dem", beta=BETA, tail=0.5, chunk_size=3)  # dem_ds's chunks: no new compile
+    capsys.readouterr()
+    ds = rj.ida(block, _records(), SCALES, progress=True, **kw)
+    err = capsys.readouterr().err
+    assert "rockjax.ida" in err and "8/8" in err and "chunk 4/4, dt = 0.005 s" in err, err
+    assert "compiling" in err  # the first chunk of each dt group says it may compile
+    xr.testing.assert_identical(ds.drop_attrs(), dem_ds.drop_attrs())
+    rj.ida(block, _records(), SCALES, **kw)  # progress=None: stderr is no terminal here
+    assert capsys.readouterr().err == ""

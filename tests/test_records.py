@@ -432,3 +432,160 @@ def test_load_files_folders_and_errors_name_the_entry(tmp_path):
     empty.mkdir()
     with pytest.raises(ValueError, match=r"empty: the folder holds no \.AT2 files"):
         records.load([empty])
+
+
+# ------------------------------------------------------------------ CSV: recorders, columns, steps
+# OpenSees prints 6 significant digits by default (`recorder ... -precision 6`): a relative
+# half-unit of the 6th digit
+RTOL_6_DIGITS = 5e-6 + 1e-15
+
+
+def _opensees_file(path, t, columns, fmt="%.6g"):
+    """A Node recorder file written as OpenSees writes it with `-time`: no header, blanks
+    between fields, the time first, then one column per node and DOF."""
+    np.savetxt(path, np.column_stack([t, *columns]), fmt=fmt, delimiter=" ")
+
+
+def test_read_csv_opensees_recorder_several_dofs(tmp_path):
+    """`recorder Node -file a.out -time -node 3 4 -dof 1 2 accel`: 4 DOF columns after the time;
+    the first row is the end of the first step, t = dt."""
+    dt = 0.005
+    t = dt * np.arange(1, 401)
+    cols = [np.sin(2 * np.pi * f * t) * (k + 1) for k, f in enumerate((1.0, 2.0, 3.0, 5.0))]
+    path = tmp_path / "floor.out"
+    _opensees_file(path, t, cols)
+    with pytest.raises(ValueError, match=r"floor\.out, line 1: 5 values.*Pass column="):
+        records.read_csv(path, units="m/s2")
+    for k in range(4):
+        gm = records.read_csv(path, column=k + 1, units="m/s2")
+        assert gm.n == t.size and gm.dt == dt
+        np.testing.assert_allclose(gm.ag, cols[k], rtol=RTOL_6_DIGITS, atol=1e-6 * (k + 1))
+        assert gm.metadata["t_start"] == "0.005" and gm.metadata["column"] == str(k + 1)
+    # the last column counted from the end, as a Python index
+    np.testing.assert_array_equal(
+        records.read_csv(path, column=-1, units="m/s2").ag,
+        records.read_csv(path, column=4, units="m/s2").ag,
+    )
+    # a recorder in kip-inch-second units
+    gm = records.read_csv(path, column=1, units="in/s2")
+    np.testing.assert_allclose(gm.ag, 0.0254 * cols[0], rtol=RTOL_6_DIGITS, atol=1e-7)
+    with pytest.raises(ValueError, match=r"column=7 is out of range: the file has 5 columns"):
+        records.read_csv(path, column=7)
+    with pytest.raises(ValueError, match=r"column=0 is also the time column"):
+        records.read_csv(path, column=0)
+
+
+def test_read_csv_columns_by_name(tmp_path):
+    path = tmp_path / "export.csv"
+    t = 0.01 * np.arange(20)
+    rows = "".join(f"{a:.2f},{1.0 + a},{-a},{2 * a:.3f}\n" for a in t)
+    path.write_text("acc_x [g],time [s],acc_y [g],acc_z [g]\n" + rows)
+    gm = records.read_csv(path, column="acc_y [g]", time_column="time [s]")
+    np.testing.assert_allclose(gm.ag, -t * G, rtol=1e-15)
+    assert math.isclose(gm.dt, 0.01, rel_tol=1e-12) and gm.metadata["t_start"] == "1.0"
+    assert gm.metadata["column"] == "acc_y [g]" and gm.metadata["time_column"] == "time [s]"
+    gm = records.read_csv(path, column="ACC_Z [G]", time_column=1)  # case-insensitive
+    np.testing.assert_allclose(gm.ag, 2 * t * G, rtol=1e-15)
+    with pytest.raises(ValueError, match=r"column='acc' is not a column name.*1 \('time \[s\]'\)"):
+        records.read_csv(path, column="acc", time_column=1)
+    # a tab-separated export with blanks inside the names
+    path = tmp_path / "tabs.txt"
+    path.write_text("t [s]\ta [m/s2]\n0\t0.5\n0.02\t-0.5\n")
+    gm = records.read_csv(path, column="a [m/s2]", time_column="t [s]", units="m/s2")
+    np.testing.assert_allclose(gm.ag, [0.5, -0.5]) and gm.dt == 0.02
+    # without a header a name cannot be resolved
+    path.write_text("0\t0.5\n0.02\t-0.5\n")
+    with pytest.raises(ValueError, match=r"column='a' names a column, but the file has no header"):
+        records.read_csv(path, column="a")
+
+
+@pytest.mark.parametrize(
+    ("text", "encoding"),
+    [
+        ("0.0,0.1\n0.01,0.2\n0.02,0.3\n", "utf-8-sig"),  # Excel "CSV UTF-8": a byte order mark
+        ("0.0\t0.1\n0.01\t0.2\n0.02\t0.3\n", "utf-16"),  # Excel "Unicode text"
+        ("# exported\n0.0,0.1 # start\n0.01,0.2\n\n# pause\n0.02,0.3#end\n", "utf-8"),
+        ("t,a\n0.0,0.1,\n0.01,0.2,\n0.02,0.3,\n", "utf-8"),  # one trailing separator per row
+        ("0.0;0.1\r\n0.01;0.2\r\n0.02;0.3\r\n", "utf-8"),
+    ],
+    ids=["utf8-bom", "utf16-bom", "comments", "trailing-separator", "semicolons-crlf"],
+)
+def test_read_csv_keeps_every_row(tmp_path, text, encoding):
+    """Every data row is read, whatever wraps it (before, a BOM or a trailing comment on the first
+    row made it a header, silently dropped)."""
+    path = tmp_path / "rec.csv"
+    path.write_bytes(text.encode(encoding))
+    gm = records.read_csv(path, units="m/s2")
+    np.testing.assert_array_equal(np.asarray(gm.ag), [0.1, 0.2, 0.3])
+    assert math.isclose(gm.dt, 0.01, rel_tol=1e-12)
+
+
+def test_read_csv_refuses_what_it_cannot_read(tmp_path):
+    path = tmp_path / "bad.csv"
+    cases = [
+        # a first line that mixes text and numbers is data that does not parse, not a header
+        ("Node 3 DOF 1\n0 0\n0.01 1\n", {}, r"line 1: 'Node' is not a number.*header=True"),
+        ("0,,1\n0.01,2,3\n", {}, r"line 1: field 1 is empty"),
+        ("0 0\n0.01 1 2\n", {}, r"line 2: 3 values, expected 2 as on line 1"),
+        ("0;0,1\n0,01;0,2\n", {}, r"line 1: '0,1' is not a number.*[Dd]ecimal commas"),
+        ("0.1\n0.2\n", {}, r"line 1: 1 value, expected 2.*time_column=False and dt="),
+        ("0 0\n0.01 1\n0.005 3\n", {}, r"line 3: .*must increase.*follows t = 0\.01 s on line 2"),
+        ("0 0\n0.01 294\n", {}, r"peaks at 294 g read with units='g'.*units='cm/s2'"),
+        ("0 0\n0.01 1\n", {"column": True}, r"column must be a 0-based column index"),
+        ("0 0\n0.01 1\n", {"resample": 0.5}, r"resample=0\.5 s is longer than the record"),
+    ]
+    for text, kw, message in cases:
+        path.write_text(text)
+        with pytest.raises(ValueError, match=message):
+            records.read_csv(path, **kw)
+    # a header with a number in it, declared
+    path.write_text("Node 3 DOF 1\n0 0\n0.01 1\n")
+    gm = records.read_csv(path, header=True, units="m/s2")
+    assert gm.metadata["header"] == "Node 3 DOF 1" and gm.n == 2
+    # a NaN in a column not read is no error (OpenSees writes -nan for a diverged DOF)
+    path.write_text("0 0 -nan\n0.01 1 -nan\n")
+    np.testing.assert_array_equal(records.read_csv(path, column=1, units="m/s2").ag, [0.0, 1.0])
+    with pytest.raises(ValueError, match=r"line 1: non-finite sample '-nan' in column 2"):
+        records.read_csv(path, column=2)
+
+
+def test_read_csv_variable_step_says_how_and_resamples(tmp_path):
+    """A variable-step analysis (steps halved around t = 0.5 s): the error quantifies the spread
+    and proposes resample=; resample interpolates linearly.
+
+    Reference: a record linear in t is reproduced exactly by linear interpolation; a sine is
+    within the interpolation bound h^2/8 max|a''| of its closed form (h the file's largest
+    step)."""
+    t = np.concatenate([np.arange(0.0, 0.5, 0.01), np.arange(0.5, 0.6, 0.0025), [0.6, 0.61]])
+    t = np.concatenate([t, np.arange(0.62, 1.0001, 0.01)])
+    path = tmp_path / "variable.out"
+    _opensees_file(path, t, [0.3 + 0.7 * t], fmt="%.17g")
+    message = (
+        r"variable\.out: the time column t of record 'variable' is not uniformly sampled: the "
+        r"steps range from 0\.0025 to 0\.01 s .* differ from the mean by more than rtol=1e-06; "
+        r"the worst, line \d+ .* Pass resample=0\.01 to interpolate"
+    )
+    with pytest.raises(ValueError, match=message):
+        records.read_csv(path, units="m/s2")
+    gm = records.read_csv(path, units="m/s2", resample=0.004)
+    t_new = 0.004 * np.arange(gm.n)
+    assert gm.dt == 0.004 and gm.n == 251 and t_new[-1] <= t[-1]
+    # exact for a linear record, up to round-off
+    np.testing.assert_allclose(gm.ag, 0.3 + 0.7 * t_new, rtol=0, atol=1e-14)
+    assert "linear interpolation of" in gm.metadata["resampled"]
+
+    omega = 2 * np.pi * 1.5
+    _opensees_file(path, t, [np.sin(omega * t)], fmt="%.17g")
+    gm = records.read_csv(path, units="m/s2", resample=0.004)
+    bound = 0.01**2 / 8 * omega**2  # h^2/8 max|a''|
+    err = np.max(np.abs(np.asarray(gm.ag) - np.sin(omega * t_new)))
+    assert 0 < err <= bound
+    # a uniform file resamples too, like GroundMotion.resampled
+    uniform = tmp_path / "u.csv"
+    _opensees_file(uniform, 0.01 * np.arange(101), [np.sin(omega * 0.01 * np.arange(101))])
+    gm = records.read_csv(uniform, units="m/s2", resample=0.005)
+    assert gm.n == 201 and "step 0.01 s" in gm.metadata["resampled"]
+    bare = tmp_path / "bare.txt"
+    bare.write_text("0.0\n1.0\n2.0\n")
+    gm = records.read_csv(bare, time_column=False, dt=0.01, resample=0.005, units="m/s2")
+    np.testing.assert_allclose(gm.ag, [0.0, 0.5, 1.0, 1.5, 2.0], rtol=0, atol=1e-15)

@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import metrics
+from .. import _progress, metrics
 from .._checks import check_choice, check_nonnegative, check_scalar
 from ..block import Block
 from ..compilation import notice_once
@@ -94,6 +94,7 @@ def fit_beta(
     max_iter: int = 40,
     joint: Joint | None = None,
     gap: float = 0.0,
+    progress: bool | None = None,
 ) -> Calibration:
     """Fit the DEM's ``beta`` [s] so that its free rocking matches Housner's with restitution ``e``.
 
@@ -117,6 +118,9 @@ def fit_beta(
         joint: The DEM's contact joint (:class:`rockjax.Joint`; default ``rj.Joint()``, the
             integrated face law).
         gap: Facade gap [m].
+        progress: A progress bar over the iterations (tqdm, on stderr; ``method="lbfgs"`` and
+            ``"root"``): None (default) shows it when stderr is a terminal, True always, False
+            never.
 
     Returns:
         A :class:`Calibration` (``.beta``, ``.e_effective``, ``.loss``, ``.history``,
@@ -171,13 +175,21 @@ def fit_beta(
     converged = True
     n_iter = 0
     root_finish = False
+    bar = _progress.bar(
+        progress if method != "grid" else False, total=max_iter, desc="rockjax.fit_beta", unit="it"
+    )
+
+    def on_step(params, loss):
+        bar.set_postfix_str(f"beta = {params[0]:.4g} s, loss = {loss:.3g}", refresh=False)
+        bar.update()
+
     if method == "grid":
         beta, n_add, grid, gl = solvers.grid(problem, bmax, n_grid)
         n_sims += n_add
         hist_b, hist_l = list(grid), list(gl)
     elif method == "root":
         beta, n_add, hb, hl, converged, n_iter = solvers.illinois(
-            problem, scan, gap_s, rtol, max_iter
+            problem, scan, gap_s, rtol, max_iter, on_step
         )
         n_sims += n_add
         hist_b += hb
@@ -193,7 +205,7 @@ def fit_beta(
         cap = float(problem.beta_cap)
         u0 = slope * cap * math.atanh(min(max(float(beta0), 1e-4 * bmax) / cap, 0.999))
         u, hist, n_add, n_iter, converged = solvers.minimize(
-            loss_u, problem, u0, lambda v: (float(beta_of_u(problem, v)),), rtol, max_iter
+            loss_u, problem, u0, lambda v: (float(beta_of_u(problem, v)),), rtol, max_iter, on_step
         )
         n_sims += n_add
         hist_b += [p[0] for p, _ in hist]
@@ -208,13 +220,16 @@ def fit_beta(
             n_sims += 1
             root_finish = abs(g_now) > GAP_TOL
             if root_finish:
+                bar.total += max_iter
                 beta, n_add, hb, hl, converged, n_more = solvers.false_position_finish(
-                    problem, scan, gap_s, beta, g_now, rtol, max_iter
+                    problem, scan, gap_s, beta, g_now, rtol, max_iter, on_step
                 )
                 n_sims += n_add
                 n_iter += n_more
                 hist_b += hb
                 hist_l += hl
+    bar.total = bar.n  # stopped before max_iter: the bar ends full
+    bar.close()
     return _finish(
         problem,
         beta,

@@ -99,6 +99,22 @@ class Calibration:
         """Alias of ``e``."""
         return self.e
 
+    def __repr__(self) -> str:
+        if "e" in self.history:  # fit_e: e fitted to the DEM at a given beta
+            fitted = f"e = {_num(self.e)} fitted at beta = {self.beta:.4g} s"
+            target = f"e_effective {_num(self.e_effective)}"
+        elif self.e is not None:
+            fitted = f"beta = {self.beta:.4g} s"
+            target = f"e target {_num(self.e)}, e_effective {_num(self.e_effective)}"
+        else:
+            fitted = f"beta = {self.beta:.4g} s"
+            e3 = ", ".join(_num(v, 3) for v in np.asarray(self.e_exp, float))
+            target = f"bounces: e_exp 1-3 {e3}"
+        return (
+            f"Calibration({fitted}{_block(self.dem)}: {target}; {_verdict(self)}; {self.method}, "
+            f"{self.n_iterations} iterations, {self.n_simulations} runs, {self.seconds:.3g} s)"
+        )
+
 
 @dataclasses.dataclass(frozen=True)
 class HistoryFit:
@@ -128,6 +144,30 @@ class HistoryFit:
     seconds: float
     dem: Response
     reason: str = ""
+
+    def __repr__(self) -> str:
+        return (
+            f"HistoryFit(beta = {self.beta:.4g} s, b = {self.b:.4g} m: loss {self.loss:.3g}; "
+            f"{_verdict(self)}; {self.n_iterations} iterations, {self.n_simulations} runs, "
+            f"{self.seconds:.3g} s)"
+        )
+
+
+def _num(x, digits: int = 4) -> str:
+    return "nan" if x is None or not math.isfinite(x) else f"{x:.{digits}f}"
+
+
+def _block(resp: Response) -> str:
+    """`` of the 0.25 x 3 m block`` from the DEM response (its ``b`` and ``eta``)."""
+    try:
+        b, eta = float(resp.b), float(resp.eta)
+    except (TypeError, ValueError):
+        return ""
+    return f" of the {b:.4g} x {b / math.tan(eta):.4g} m block"
+
+
+def _verdict(fit) -> str:
+    return "converged" if fit.converged else f"NOT converged: {fit.reason}"
 
 
 # --------------------------------------------------------------------------- the verdict

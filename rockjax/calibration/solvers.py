@@ -40,13 +40,14 @@ def _update(loss, u, state, value, grad, problem):
     return optax.apply_updates(u, updates), state, n_ls, failed
 
 
-def minimize(loss, problem, u0, params_of, rtol: float, max_iter: int):
+def minimize(loss, problem, u0, params_of, rtol: float, max_iter: int, on_step=None):
     """L-BFGS on ``loss(u, problem)`` from ``u0``.
 
     Stops when no parameter (``params_of(u)``, a tuple of floats) moves by more than ``rtol``
     relative in an iteration, or when the line search twice in a row (the second time from a
     reset curvature memory) finds no decrease: a stationary point to within the loss's
-    numerical noise.
+    numerical noise. ``on_step(params, loss)``, if given, is called after every iteration (a
+    progress bar).
 
     Returns ``(u, history of (params, loss), n_simulations, n_iterations, converged)``; one
     simulation is one loss evaluation (with or without its derivative).
@@ -68,6 +69,8 @@ def minimize(loss, problem, u0, params_of, rtol: float, max_iter: int):
             )
         u_new, state, n_ls, failed = _update(loss, u, state, value, grad, problem)
         n_sims += int(n_ls)
+        if on_step is not None:
+            on_step(prev, float(value))
         if bool(failed):
             hist.append((prev, float(value)))
             if restarted:  # twice in a row: stationary to within the loss's noise
@@ -121,7 +124,7 @@ def grid(problem: CalibrationProblem, bmax: float, n_grid: int, chunk: int = 64)
     return float(beta), n_grid, betas, gl
 
 
-def illinois(problem: CalibrationProblem, scan, gap_s, rtol: float, max_iter: int):
+def illinois(problem: CalibrationProblem, scan, gap_s, rtol: float, max_iter: int, on_step=None):
     """Illinois false position on the monotone signed gap, bracketed by ``scan[0]`` and
     ``scan[-1]`` [s] with gaps ``gap_s[0] >= 0 >= gap_s[-1]``.
 
@@ -137,6 +140,8 @@ def illinois(problem: CalibrationProblem, scan, gap_s, rtol: float, max_iter: in
         lc, gc, _, _ = (float(np.asarray(x)[0]) for x in stats_batch(problem, jnp.asarray([c])))
         hb.append(c)
         hl.append(lc)
+        if on_step is not None:
+            on_step((c,), lc)
         if gc == 0.0 or abs(b - a) <= rtol * max(c, 1e-12):
             converged = True
             break
@@ -156,7 +161,9 @@ def illinois(problem: CalibrationProblem, scan, gap_s, rtol: float, max_iter: in
     return c, n, hb, hl, converged, n
 
 
-def false_position_finish(problem: CalibrationProblem, scan, gap_s, beta, g_now, rtol, max_iter):
+def false_position_finish(
+    problem: CalibrationProblem, scan, gap_s, beta, g_now, rtol, max_iter, on_step=None
+):
     """Finish an L-BFGS fit at ``beta`` (signed gap ``g_now``) by :func:`illinois` from the
     tightest bracket that the scan (``scan``, ``gap_s``) and ``beta`` give.
 
@@ -168,4 +175,6 @@ def false_position_finish(problem: CalibrationProblem, scan, gap_s, beta, g_now,
     hi = [(float(b), float(g)) for b, g in zip(scan, gap_s) if g < 0] + [(beta, g_now)]
     a = max((p for p in lo if p[1] >= 0), key=lambda p: p[0])
     b = min((p for p in hi if p[1] < 0), key=lambda p: p[0])
-    return illinois(problem, np.array([a[0], b[0]]), np.array([a[1], b[1]]), rtol, max_iter)
+    return illinois(
+        problem, np.array([a[0], b[0]]), np.array([a[1], b[1]]), rtol, max_iter, on_step
+    )
