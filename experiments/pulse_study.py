@@ -123,6 +123,10 @@ def calibrate(blocks, path: pathlib.Path) -> dict[tuple[str, str], dict]:
             print(
                 f"  beta {key}: {fit.beta:.4g} s ({target}; {out[(label, mode)]['seconds']:.1f} s)"
             )
+            # written after every fit, so an interrupted run keeps the fits it made
+            path.write_text(
+                json.dumps({**cached, **{f"{k[0]}/{k[1]}": v for k, v in out.items()}}, indent=1)
+            )
     path.write_text(json.dumps({f"{k[0]}/{k[1]}": v for k, v in out.items()}, indent=1))
     return out
 

@@ -1036,7 +1036,7 @@ def _add_calibrate_parser(sub) -> None:
         type=float,
         default=None,
         metavar="S",
-        help="upper end of the beta search [s] (default: 2 beta_DeJong; 8 beta_Hcrit one-sided)",
+        help="upper end of the beta search [s] (default: 2 beta_DeJong; 16 beta_Hcrit one-sided)",
     )
     p.add_argument(
         "--method",

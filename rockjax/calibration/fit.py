@@ -111,7 +111,7 @@ def fit_beta(
         n_bounces: Impacts compared (default 8 two-sided, 3 one-sided).
         beta0: Starting ``beta`` [s]; default: seeded by a vmapped scan of ``n_seed`` values.
         beta_max: Upper end of the search [s] (default ``2 beta_DeJong``; facades
-            ``8 beta_Hcrit``, see :data:`FACADE_BETA_MAX_HCRIT`).
+            ``16 beta_Hcrit``, see :data:`FACADE_BETA_MAX_HCRIT`).
         method: ``"lbfgs"`` (gradient, default), ``"grid"`` (``n_grid`` points) or ``"root"``.
         rtol: Stop when an iteration moves ``beta`` by less than ``rtol`` relative.
         max_iter: Iteration cap (L-BFGS or root find).
