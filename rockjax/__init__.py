@@ -36,6 +36,7 @@ jax.config.update("jax_enable_x64", True)
 
 from . import calibration as calibration  # noqa: E402
 from . import campaign as campaign  # noqa: E402  (dask is imported lazily inside)
+from . import compilation as compilation  # noqa: E402
 from . import jsonio as jsonio  # noqa: E402
 from . import metrics as metrics  # noqa: E402
 from . import plot as plot  # noqa: E402  (matplotlib is imported lazily inside)
@@ -48,6 +49,7 @@ from .calibration import Calibration as Calibration  # noqa: E402
 from .calibration import fit_beta as fit_beta  # noqa: E402
 from .calibration import fit_e as fit_e  # noqa: E402
 from .calibration import fit_history as fit_history  # noqa: E402
+from .compilation import enable_cache as enable_compilation_cache  # noqa: E402
 from .contact import Joint as Joint  # noqa: E402
 from .dem import simulate_dem as simulate_dem  # noqa: E402
 from .dem import stable_dt as stable_dt  # noqa: E402
@@ -87,8 +89,10 @@ __all__ = [
     "calibration",
     "campaign",
     "collapse_intervals",
+    "compilation",
     "e_housner",
     "e_isr",
+    "enable_compilation_cache",
     "fit_beta",
     "fit_e",
     "fit_history",

@@ -1,4 +1,4 @@
-"""The Housner rocking model with impacts, solved in one ``diffrax.diffeqsolve``.
+"""The Housner rocking model with impacts, solved in one JAX loop over the record.
 
 Model (Housner 1963). A rigid rectangle of half-diagonal ``R`` and slenderness ``eta`` rocks
 on one bottom corner, the pivot ``s = +1`` (the +x corner, ``theta > 0``) or ``s = -1``. With
@@ -25,28 +25,33 @@ and the continuation past a crossing is smooth, which makes the crossing time a 
   resolved one by one.
 * Overturning: ``|theta| > eta`` while moving outward flags ``overturned`` and freezes the state.
 
-Design. One fixed-step ``diffeqsolve`` (``StepTo`` on the record samples, each record step split
-into ``n_sub`` equal steps) with a custom solver, ``_HousnerSolver``, whose ``step`` resolves the
-impacts inside the step, so a record is one solve, not one solve per impact. The record reaches
-the solver as a ``_Record`` (samples on a uniform grid, linear in between) in ``args``; each
-step evaluates it at its two ends and uses the exact linear forcing in between. A step runs
-passes in a while loop until every record of the batch has reached the step end (at most
-``max_impacts_per_step + 1``), each: (1) if at rest, the uplift time from the linear forcing;
-(2) a Tsit5 step (diffrax's tableau, unrolled) to the step end; (3) if ``s theta`` crossed
-zero (it changed sign, or it dipped below zero and came back: a graze, seen as a turning point
-of the step's cubic Hermite fit below zero), the first crossing time from that fit
-(bisection, then Newton), a Tsit5 re-step to it, one Newton correction
-``tau' = tau - theta/theta_dot`` on the true trajectory with the state advanced linearly to
-``tau'``, the impact map and the rest rule; the next pass continues from ``tau'``. A step that
-needs more passes is reported (``STATUS_UNRESOLVED``), never silently rested. The loop is an
-``equinox.internal.while_loop`` of the kind the adjoint can differentiate. Per-record
-branches are ``jnp.where`` selects, so batches of records, blocks and restitution coefficients
-vectorise,
-and ``grad``/``jvp`` go through the root-finding (the last Newton steps carry the
-implicit-function derivative of the impact times). The Tsit5 steps sit in ``lax.cond`` on
-whether any record of the batch needs them, so passes without an impact cost little (the
-common case for one record). The discrete state (pivot, flags, impact count, last impact
-time, running max ``|theta|``) rides along in ``y``; diffrax saves it at every step.
+Design. The whole record is one loop of passes (``_run``, an ``equinox.internal.while_loop``
+of the kind the adjoint can differentiate: ``"checkpointed"`` for ``grad``, ``"lax"`` under
+``diffrax.ForwardMode`` for ``jvp``), over fixed solver steps: the record samples, each record
+step split into ``n_sub`` equal steps. The record is a ``_Record`` (samples on a uniform grid,
+linear in between); each step uses the exact linear forcing between its two ends. A step is
+explored and, for each crossing found, resolved by the next pass; at most
+``max_impacts_per_step + 1`` explorations a step. An exploring pass: (1) if at rest, the uplift
+time from the linear forcing; (2) a Tsit5 step (diffrax's tableau, unrolled) to the step end;
+(3) if ``s theta`` crossed zero (it changed sign, or it dipped below zero and came back: a
+graze, seen as a turning point of the step's cubic Hermite fit below zero), the first crossing
+time ``tau`` from that fit (bisection, then Newton), handed to the next pass. An impact pass:
+a Tsit5 step to ``tau``, one Newton correction ``tau' = tau - theta/theta_dot`` on the true
+trajectory with the state advanced linearly to ``tau'``, the impact map and the rest rule; the
+next pass explores on from ``tau'``. Each pass holds one Tsit5 step, so the loop body holds one
+copy of it. A step that needs more explorations is reported (``STATUS_UNRESOLVED``), never
+silently rested. Per-record branches are selects, so batches of records, blocks and
+restitution coefficients vectorise (each record of a batch at its own step), and
+``grad``/``jvp`` go through the root-finding (the last Newton steps carry the
+implicit-function derivative of the impact times). The Tsit5 step sits in a ``lax.cond`` on
+whether any record of the batch needs it. The discrete state (pivot, flags, impact count, last
+impact time, running max ``|theta|``) rides along in the loop state; the loop saves the state
+at every sample into buffers written once each.
+
+Compile once: the record's length and step are data (``n_out``, ``_Record.dt``), so an eager
+call pads the record to a bucket (:func:`rockjax.compilation.bucket_length`, repeating its
+last sample, which is what the forcing beyond the end holds anyway) and records of any length
+and step in the bucket share one compiled program; the loop stops at the true length.
 
 Step-size rule: the solver step is the output step divided by
 ``n_sub = ceil(p dt_out / P_DT_TARGET)``, i.e. ``p dt_step <= 0.1``: Tsit5's error per step is
@@ -71,7 +76,9 @@ after starting away from it.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from typing import Any
 
 import diffrax
 import equinox as eqx
@@ -81,12 +88,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._checks import check_choice, concrete
+from ._checks import check_choice, check_positive, check_samples, check_scalar, concrete
 from .block import Block
+from .compilation import bucket_length, is_traced, notice_once, pad_to
 from .constants import G
 from .motion import GroundMotion
 from .relations import e_housner, e_isr
 from .response import (
+    STATUS_BAD_INPUT,
     STATUS_NONFINITE,
     STATUS_OK,
     STATUS_UNRESOLVED,
@@ -144,11 +153,46 @@ _SIN = tuple((-1) ** k / math.factorial(2 * k + 1) for k in range(12))
 _COS = tuple((-1) ** k / math.factorial(2 * k) for k in range(13))
 
 
+# --------------------------------------------------------------------------- helpers
+# jnp.where, jnp.clip, // and % on arrays are jitted functions: under grad each of their
+# hundreds of calls in a pass is traced through as a nested jit, which made up much of the
+# time to trace. The solver's per-pass code uses these bare-lax equivalents instead.
+
+
+def _where(pred, a, b):
+    """``jnp.where(pred, a, b)`` as one ``lax.select`` (same values, same derivatives)."""
+    dtype = jnp.result_type(a, b)
+    shape = jnp.broadcast_shapes(jnp.shape(pred), jnp.shape(a), jnp.shape(b))
+
+    def fit(x, dt):
+        x = jax.lax.convert_element_type(x, dt)
+        if x.shape == shape:
+            return x
+        return jax.lax.broadcast_in_dim(x, shape, tuple(range(len(shape) - x.ndim, len(shape))))
+
+    return jax.lax.select(fit(pred, bool), fit(a, dtype), fit(b, dtype))
+
+
+def _clip(x, lo, hi):
+    """``jnp.clip(x, lo, hi)`` (its definition: ``minimum(maximum(x, lo), hi)``)."""
+    return jnp.minimum(jnp.maximum(x, lo), hi)
+
+
+def _floordiv(k, n: int):
+    """``k // n`` for ``k >= 0`` (an int array) and a static ``n >= 1``."""
+    return k if n == 1 else jax.lax.div(k, jnp.asarray(n, k.dtype))
+
+
+def _mod(k, n: int):
+    """``k % n`` for ``k >= 0`` (an int array) and a static ``n >= 1``."""
+    return jnp.zeros_like(k) if n == 1 else jax.lax.rem(k, jnp.asarray(n, k.dtype))
+
+
 # --------------------------------------------------------------------------- state and forcing
 
 
 class _State(eqx.Module):
-    """The solver state. Every field is a float64 scalar so diffrax can carry and save it."""
+    """The solver state: float64 scalars, carried by the loop and saved at the samples."""
 
     theta: Array  # rotation [rad]
     theta_dot: Array  # angular velocity [rad/s]
@@ -161,17 +205,17 @@ class _State(eqx.Module):
 
 
 class _Series(eqx.Module):
-    """The part of the state saved at every step (the rest is needed only at the end)."""
+    """The part of the state saved at every sample (the rest is needed only at the end). Inside
+    the loop its fields are the loop's buffers, not arrays: hence no annotations to check."""
 
-    theta: Array
-    theta_dot: Array
-    s: Array
-    n_impacts: Array
-    t_last_impact: Array
+    theta: Any
+    theta_dot: Any
+    s: Any
+    n_impacts: Any
+    t_last_impact: Any
 
 
-def _series(t, y: _State, args) -> _Series:
-    del t, args
+def _series(y: _State) -> _Series:
     return _Series(y.theta, y.theta_dot, y.s, y.n_impacts, y.t_last_impact)
 
 
@@ -208,21 +252,21 @@ class _Record(eqx.Module):
     the rest rule's look-ahead times need the forcing at arbitrary times.
     """
 
-    ag: Array  # [m/s^2], one value per sample
+    ag: Array  # [m/s^2], one value per sample (padded by repeating the last one)
     ag_v: Array | None
-    dt: float = eqx.field(static=True)  # sample spacing [s]
+    dt: Array  # sample spacing [s]: data, so records of any step share one compilation
 
     def _eval(self, ys, t):
         n = ys.shape[0]
-        x = jnp.clip(t / self.dt, 0.0, n - 1.0)
-        i = jax.lax.stop_gradient(jnp.clip(jnp.floor(x), 0.0, n - 2.0))
+        x = _clip(t / self.dt, 0.0, n - 1.0)
+        i = jax.lax.stop_gradient(_clip(jnp.floor(x), 0.0, n - 2.0))
         frac = x - i
         i = i.astype(jnp.int32)
         return ys[i] + frac * (ys[i + 1] - ys[i])
 
     def sample(self, i):
         """``(a_g, g_eff)`` at sample ``i`` (an integer array, clipped to the record) [m/s^2]."""
-        i = jnp.clip(i, 0, self.ag.shape[0] - 1)
+        i = _clip(i, 0, self.ag.shape[0] - 1)
         return self.ag[i], G + (0.0 if self.ag_v is None else self.ag_v[i])
 
     def at(self, t):
@@ -271,11 +315,15 @@ def _sincos_jvp(primals, tangents):
     return (sin_x, cos_x), (cos_x * dx, -sin_x * dx)
 
 
+@jax.jit
 def _theta_ddot(t, theta, s, params: _Params, forcing):
     """Angular acceleration [rad/s^2] on pivot ``s = +-1`` (module docstring equation).
 
     Uses ``sin(s eta - theta)`` and ``cos(s eta - theta)`` expanded with ``s^2 = 1``, so each
-    evaluation needs only the sine and cosine of ``theta``.
+    evaluation needs only the sine and cosine of ``theta``. Jitted although an inner helper:
+    its seven calls in a pass then share one traced graph, which ``grad`` transforms once
+    instead of seven times (a fifth of the time to trace; XLA inlines it, so runs are
+    unchanged).
     """
     ag, g_eff = forcing.at(t)
     sin_th, cos_th = _sincos(theta)
@@ -283,24 +331,6 @@ def _theta_ddot(t, theta, s, params: _Params, forcing):
     return -params.p2_over_g * (
         cos_th * (g_eff * s_sin_eta + ag * params.cos_eta)
         + sin_th * (ag * s_sin_eta - g_eff * params.cos_eta)
-    )
-
-
-def _vector_field(t, y: _State, args):
-    """The smooth flow between impacts, on the full state (discrete parts do not move)."""
-    params, forcing = args
-    moving = (y.s != 0) & (y.overturned == 0)
-    acc = jnp.where(moving, _theta_ddot(t, y.theta, y.s, params, forcing), 0.0)
-    zero = jnp.zeros_like(y.theta)
-    return _State(
-        theta=jnp.where(moving, y.theta_dot, 0.0),
-        theta_dot=acc,
-        s=zero,
-        overturned=zero,
-        n_impacts=zero,
-        t_last_impact=zero,
-        theta_max=zero,
-        n_unresolved=zero,
     )
 
 
@@ -321,7 +351,7 @@ def _rk_step(accel, t0, h, theta0, theta_dot0):
 
 def _safe(x):
     """``x``, or 1 where ``|x|`` is negligible (only reached in masked-out branches)."""
-    return jnp.where(jnp.abs(x) > _TINY, x, 1.0)
+    return _where(jnp.abs(x) > _TINY, x, 1.0)
 
 
 def _hermite_coefficients(u0, du0, u1, du1):
@@ -341,14 +371,14 @@ def _hermite_turn(u0, du0, u1, du1):
     # u'(x) = c1 + 2 c2 x + 3 c3 x^2 has exactly one root in (0, 1) when c1 < 0 < u'(1).
     a, b = 3.0 * c3, 2.0 * c2
     disc = jnp.maximum(b * b - 4.0 * a * c1, 0.0)
-    q = -0.5 * (b + jnp.where(b >= 0, 1.0, -1.0) * jnp.sqrt(disc))
+    q = -0.5 * (b + _where(b >= 0, 1.0, -1.0) * jnp.sqrt(disc))
     x_small = c1 / _safe(q)  # the root of smaller magnitude (stable form)
     x_big = q / _safe(a)
-    x = jnp.where((x_small >= 0) & (x_small <= 1), x_small, x_big)
-    x = jnp.clip(x, 0.0, 1.0)
+    x = _where((x_small >= 0) & (x_small <= 1), x_small, x_big)
+    x = _clip(x, 0.0, 1.0)
     turns = (du0 < 0) & (du1 > 0)
     u_turn = ((c3 * x + c2) * x + c1) * x + u0
-    return jnp.where(turns, x, 1.0), jnp.where(turns, u_turn, u1)
+    return _where(turns, x, 1.0), _where(turns, u_turn, u1)
 
 
 def _hermite_root(u0, du0, u1, du1, xb):
@@ -368,25 +398,24 @@ def _hermite_root(u0, du0, u1, du1, xb):
     def cubic(x):
         return ((c3 * x + c2) * x + c1) * x + u0
 
-    lo, hi = jnp.zeros_like(u0), jnp.broadcast_to(xb, jnp.shape(u0)).astype(u0.dtype)
+    # The bracket carries no derivative: bisect on constants (nothing to trace under jvp).
+    a0, a1, a2, a3 = (jax.lax.stop_gradient(v) for v in (u0, c1, c2, c3))
+    lo = jnp.zeros_like(a0)
+    hi = jnp.broadcast_to(jax.lax.stop_gradient(xb), jnp.shape(a0)).astype(a0.dtype)
     for _ in range(_N_BISECT):
         mid = 0.5 * (lo + hi)
-        pos = cubic(mid) > 0
-        lo, hi = jnp.where(pos, mid, lo), jnp.where(pos, hi, mid)
-    lo, hi = jax.lax.stop_gradient(lo), jax.lax.stop_gradient(hi)
+        pos = ((a3 * mid + a2) * mid + a1) * mid + a0 > 0
+        lo, hi = _where(pos, mid, lo), _where(pos, hi, mid)
     # Roots of u0 + c1 x + c2 x^2 in the stable form: u0 / q and q / c2.
-    a0, a1, a2 = (jax.lax.stop_gradient(v) for v in (u0, c1, c2))
-    q = -0.5 * (
-        a1 + jnp.where(a1 >= 0, 1.0, -1.0) * jnp.sqrt(jnp.maximum(a1 * a1 - 4 * a2 * a0, 0))
-    )
+    q = -0.5 * (a1 + _where(a1 >= 0, 1.0, -1.0) * jnp.sqrt(jnp.maximum(a1 * a1 - 4 * a2 * a0, 0)))
     r1, r2 = a0 / _safe(q), q / _safe(a2)
-    r1 = jnp.where((r1 > 0) & (r1 <= hi), r1, jnp.inf)
-    r2 = jnp.where((r2 > 0) & (r2 <= hi), r2, jnp.inf)
+    r1 = _where((r1 > 0) & (r1 <= hi), r1, jnp.inf)
+    r2 = _where((r2 > 0) & (r2 <= hi), r2, jnp.inf)
     guess = jnp.minimum(r1, r2)
-    x = jnp.where((lo == 0) & jnp.isfinite(guess), guess, 0.5 * (lo + hi))
+    x = _where((lo == 0) & jnp.isfinite(guess), guess, 0.5 * (lo + hi))
     for _ in range(_N_NEWTON):
         slope = (3.0 * c3 * x + 2.0 * c2) * x + c1
-        x = jnp.clip(x - cubic(x) / _safe(slope), lo, hi)
+        x = _clip(x - cubic(x) / _safe(slope), lo, hi)
     return x
 
 
@@ -401,8 +430,8 @@ def _uplift(ta, t1, line: _Line, params: _Params, one_sided: bool):
     """
 
     def first_positive(fa, fb):
-        frac = jnp.clip(-fa / _safe(fb - fa), 0.0, 1.0)
-        t = jnp.where(fa > 0, ta, ta + frac * (t1 - ta))
+        frac = _clip(-fa / _safe(fb - fa), 0.0, 1.0)
+        t = _where(fa > 0, ta, ta + frac * (t1 - ta))
         return (fa > 0) | (fb > 0), t
 
     a_a, g_a = line.at(ta)
@@ -415,8 +444,8 @@ def _uplift(ta, t1, line: _Line, params: _Params, one_sided: bool):
     neg_first = lifts_neg & (~lifts_pos | (t_neg < t_pos))
     return (
         lifts_pos | lifts_neg,
-        jnp.where(neg_first, t_neg, t_pos),
-        jnp.where(neg_first, -1.0, 1.0),
+        _where(neg_first, t_neg, t_pos),
+        _where(neg_first, -1.0, 1.0),
     )
 
 
@@ -430,7 +459,7 @@ def _peak(theta_a, theta_dot_a, theta_b, theta_dot_b, h):
     turns = theta_dot_a * theta_dot_b < 0
     top = theta_a + theta_dot_a**2 * h / (2.0 * _safe(dv))
     ends = jnp.maximum(jnp.abs(theta_a), jnp.abs(theta_b))
-    return jnp.where(turns, jnp.maximum(ends, jnp.abs(top)), ends)
+    return _where(turns, jnp.maximum(ends, jnp.abs(top)), ends)
 
 
 def _flight(pred, accel, t0, h, theta0, theta_dot0):
@@ -488,171 +517,318 @@ def _rests(t_imp, w, s_new, line: _Line, record: _Record, params: _Params, one_s
         ok0 = ap0 > 0
         zeno = 2.0 * w / _safe((1.0 - e) * ap0)
     else:
-        a_new = jnp.where(s_new > 0, ap0, am0)
-        a_other = jnp.where(s_new > 0, am0, ap0)
+        a_new = _where(s_new > 0, ap0, am0)
+        a_other = _where(s_new > 0, am0, ap0)
         ok0 = (ap0 > 0) & (am0 > 0)
         zeno = 2.0 * w / _safe(1.0 - e * e) * (1.0 / _safe(a_new) + e / _safe(a_other))
     ok0 = ok0 & (e < 1.0)
     fits = ok0 & (2.0 * zeno <= REST_HORIZON * record.dt)
-    t_end = t_imp + jnp.where(fits, 2.0 * zeno, 0.0)
+    t_end = t_imp + _where(fits, 2.0 * zeno, 0.0)
 
     def keeps(ap, am, inside):
         ok = ~inside | (ap >= REST_A_MARGIN * ap0)
         return ok if one_sided else ok & (~inside | (am >= REST_A_MARGIN * am0))
 
     stays = fits & keeps(*_restoring(*record.at(t_end), params), jnp.ones_like(fits))
-    i0 = jax.lax.stop_gradient(jnp.floor(t_imp / record.dt)).astype(jnp.int32)
-    for j in range(1, REST_HORIZON + 1):  # the samples inside (t_imp, t_end)
-        inside = (i0 + j) * record.dt < t_end
-        stays = stays & keeps(*_restoring(*record.sample(i0 + j), params), inside)
-    hop = w * w / (2.0 * _safe(jnp.where(ok0, a_new, 1.0)))
+    # the samples inside (t_imp, t_end), all at once (one gather, a small graph)
+    i = jax.lax.stop_gradient(jnp.floor(t_imp / record.dt)).astype(jnp.int32)
+    i = i + jnp.arange(1, REST_HORIZON + 1, dtype=jnp.int32)
+    inside = i * record.dt < t_end
+    stays = stays & jnp.all(keeps(*_restoring(*record.sample(i), params), inside))
+    hop = w * w / (2.0 * _safe(_where(ok0, a_new, 1.0)))
     # Second clause: a rebound too small to matter (its gravity-only hop <= REST_HOP eta).
     tiny = w * w <= 2.0 * REST_HOP * params.eta * params.p2_over_g * G * params.sin_eta
     rests = stays | tiny
-    return rests, jnp.where(stays, hop, 0.0)
+    return rests, _where(stays, hop, 0.0)
 
 
-def _pass(y: _State, ta, t1, line: _Line, record: _Record, params: _Params, one_sided: bool):
-    """One masked pass of a step: uplift, RK to ``t1``, and at most one impact.
+class _Hit(eqx.Module):
+    """A crossing found by a pass and resolved by the next one (see ``_pass``)."""
 
-    Returns the state and the time it holds at: ``t1``, or the impact time ``tau'`` when the
-    block impacted on the way (the next pass continues from there).
+    pending: Array  # bool: the next pass resolves an impact
+    tau: Array  # the crossing time from the step's cubic fit [s]
+    t_hi: Array  # the end of the bracket it lies in [s]
+
+
+def _pass(
+    y: _State,
+    ta,
+    hit: _Hit,
+    t1,
+    line: _Line,
+    record: _Record,
+    params: _Params,
+    one_sided: bool,
+):
+    """One masked pass of a step, of one of two kinds, with one Runge-Kutta step either way
+    (so the loop body holds one copy of it: half the graph to trace and compile).
+
+    * Explore (no ``hit.pending``): uplift, RK to ``t1``. Without a crossing the state moves to
+      ``t1``; with one, it stays at ``ta`` and the crossing time from the step's cubic fit is
+      handed to the next pass as a pending hit.
+    * Impact (``hit.pending``): RK to the crossing time ``tau``, one Newton correction
+      ``tau' = tau - theta/theta_dot`` on the true trajectory with the state advanced linearly
+      to ``tau'``, the impact map and the rest rule; the state holds at ``tau'``.
+
+    Returns the state, the time it holds at and the hit for the next pass.
     """
+    pending = hit.pending
     # (1) At rest: lift off when the forcing first exceeds the threshold in [ta, t1].
     lifts, t_up, s_up = _uplift(ta, t1, line, params, one_sided)
-    lift_now = (y.s == 0) & lifts & (y.overturned == 0)
-    s = jnp.where(lift_now, s_up, y.s)
-    ta = jnp.where(lift_now, t_up, ta)
+    lift_now = (y.s == 0) & lifts & (y.overturned == 0) & ~pending
+    s = _where(lift_now, s_up, y.s)
+    ta = _where(lift_now, t_up, ta)
     rocking = (s != 0) & (y.overturned == 0)
 
-    # (2) Smooth flight to t1 on pivot s.
     def accel(t, theta):
         return _theta_ddot(t, theta, s, params, line)
 
+    # (2) Smooth flight on pivot s: to t1 (explore) or to tau (impact).
     h = t1 - ta
-    theta1, theta_dot1 = _flight(rocking & (h > 0), accel, ta, h, y.theta, y.theta_dot)
-    u0, du0, u1, du1 = s * y.theta, h * s * y.theta_dot, s * theta1, h * s * theta_dot1
-    # A crossing: u = s theta ends negative, or ends positive after dipping below zero inside
-    # the step (a graze; the cubic Hermite fit of u has its turning point below zero).
+    theta_f, theta_dot_f = _flight(
+        pending | (rocking & (h > 0)),
+        accel,
+        ta,
+        _where(pending, hit.tau - ta, h),
+        y.theta,
+        y.theta_dot,
+    )
+
+    # (3) Explore: a crossing if u = s theta ends negative, or ends positive after dipping
+    # below zero inside the step (a graze; the cubic Hermite fit of u has its turning point
+    # below zero). Its time: the fit's first root (bisection, then Newton).
+    u0, du0, u1, du1 = s * y.theta, h * s * y.theta_dot, s * theta_f, h * s * theta_dot_f
     x_turn, u_turn = jax.lax.cond(
-        eqxi.unvmap_any(rocking & (du0 < 0) & (du1 > 0) & (u1 >= 0)),
+        eqxi.unvmap_any(~pending & rocking & (du0 < 0) & (du1 > 0) & (u1 >= 0)),
         lambda: _hermite_turn(u0, du0, u1, du1),
         lambda: (jnp.ones_like(u1), u1),
     )
     grazes = (u1 >= 0) & (u0 >= 0) & (u_turn < 0)
-    crossed = rocking & (h > 0) & ((u1 < 0) | grazes)
-    xb = jnp.where(u1 < 0, 1.0, x_turn)
-
-    # (3) The crossing of u through 0: Hermite root, re-step, one Newton step on the true
-    # trajectory with the state advanced linearly to it, then the impact map.
+    crossed = ~pending & rocking & (h > 0) & ((u1 < 0) | grazes)
+    xb = _where(u1 < 0, 1.0, x_turn)
     x = _hermite_root(u0, du0, u1, du1, xb)
-    tau = ta + x * h
-    theta_tau, theta_dot_tau = _flight(crossed, accel, ta, tau - ta, y.theta, y.theta_dot)
-    t_impact = jnp.clip(tau - theta_tau / _safe(theta_dot_tau), ta, ta + xb * h)
-    theta_dot_tau = theta_dot_tau + accel(tau, theta_tau) * (t_impact - tau)
+    advance = ~pending & rocking & ~crossed
+
+    # (4) Impact: one Newton step on the true trajectory, the impact map, the rest rule.
+    theta_tau, theta_dot_tau = theta_f, theta_dot_f
+    t_impact = _clip(hit.tau - theta_tau / _safe(theta_dot_tau), ta, hit.t_hi)
+    theta_dot_tau = theta_dot_tau + accel(hit.tau, theta_tau) * (t_impact - hit.tau)
     if one_sided:
         theta_dot_plus, s_plus = -params.e * theta_dot_tau, s
     else:
         theta_dot_plus, s_plus = params.e * theta_dot_tau, -s
     # The rule reads the record at up to REST_HORIZON + 2 times (gathers, the costliest part
-    # of a pass in a batch): only when some record of the batch impacted.
+    # of a pass in a batch): only when some record of the batch impacts.
     rests, hop = jax.lax.cond(
-        eqxi.unvmap_any(crossed),
+        eqxi.unvmap_any(pending),
         lambda: _rests(t_impact, jnp.abs(theta_dot_plus), s_plus, line, record, params, one_sided),
-        lambda: (jnp.zeros_like(crossed), jnp.zeros_like(t_impact)),
+        lambda: (jnp.zeros_like(pending), jnp.zeros_like(t_impact)),
     )
-    rests = crossed & rests
+    rests = pending & rests
 
     peak = _peak(
         y.theta,
         y.theta_dot,
-        jnp.where(crossed, theta_tau, theta1),
-        jnp.where(crossed, theta_dot_tau, theta_dot1),
-        jnp.where(crossed, t_impact - ta, h),
+        theta_f,
+        _where(pending, theta_dot_tau, theta_dot_f),
+        _where(pending, t_impact - ta, h),
     )
-    peak = jnp.maximum(peak, jnp.where(rests, hop, 0.0))
-    theta_dot_new = jnp.where(crossed, jnp.where(rests, 0.0, theta_dot_plus), theta_dot1)
-    s_new = jnp.where(crossed, jnp.where(rests, 0.0, s_plus), s)
-    t_new = jnp.where(crossed, t_impact, t1)
-    # Not rocking (at rest and not lifting, or overturned): nothing moves.
+    peak = jnp.maximum(peak, _where(rests, hop, 0.0))
+    # Not rocking (at rest and not lifting, or overturned): nothing moves. A crossing found
+    # keeps the state (and the pivot it lifted onto) at ta for the impact pass.
     y_new = _State(
-        theta=jnp.where(rocking, jnp.where(crossed, 0.0, theta1), y.theta),
-        theta_dot=jnp.where(rocking, theta_dot_new, y.theta_dot),
-        s=jnp.where(rocking, s_new, y.s),
+        theta=_where(pending, 0.0, _where(advance, theta_f, y.theta)),
+        theta_dot=_where(
+            pending,
+            _where(rests, 0.0, theta_dot_plus),
+            _where(advance, theta_dot_f, y.theta_dot),
+        ),
+        s=_where(pending, _where(rests, 0.0, s_plus), _where(rocking, s, y.s)),
         overturned=y.overturned,
-        n_impacts=y.n_impacts + crossed,
-        t_last_impact=jnp.where(crossed, t_impact, y.t_last_impact),
-        theta_max=jnp.where(rocking, jnp.maximum(y.theta_max, peak), y.theta_max),
+        n_impacts=y.n_impacts + pending,
+        t_last_impact=_where(pending, t_impact, y.t_last_impact),
+        theta_max=_where(pending | advance, jnp.maximum(y.theta_max, peak), y.theta_max),
         n_unresolved=y.n_unresolved,
     )
-    return y_new, jnp.where(rocking, t_new, t1)
+    ta_new = _where(pending, t_impact, _where(crossed, ta, t1))
+    hit_new = _Hit(
+        pending=crossed,
+        tau=_where(crossed, ta + x * h, hit.tau),
+        t_hi=_where(crossed, ta + xb * h, hit.t_hi),
+    )
+    return y_new, ta_new, hit_new
 
 
-class _HousnerSolver(diffrax.AbstractSolver):
-    """Fixed-step diffrax solver for Housner rocking with the impacts resolved inside each step.
+# --------------------------------------------------------------------------- the run
 
-    ``args = (params, record)``; ``record`` is a :class:`_Record`. Each step runs passes (a
-    while loop) until every record of the batch has reached the step end, at most
-    ``max_impacts + 1``; ``loop_kind`` is the ``equinox.internal.while_loop`` kind that the
-    adjoint can differentiate (``"checkpointed"`` for reverse mode, ``"lax"`` for
-    ``ForwardMode``, ``"bounded"`` for ``DirectAdjoint``), as diffrax chooses for its own loop.
+
+class _Carry(eqx.Module):
+    """The loop state: one pass per iteration, the solver step in progress, the saved samples."""
+
+    y: _State
+    ta: Array  # the time the state holds at [s]
+    k: Array  # the step in progress (int32), from _step_time(k) to _step_time(k + 1)
+    passes: Array  # exploring passes made in this step (int32)
+    hit: _Hit  # a crossing for the next pass to resolve
+    out: _Series  # the state at the samples: loop buffers, each sample written once
+
+
+def _step_time(k, n_sub: int, dt_out, dt_step):
+    """End ``k`` of the solver steps [s]: the samples ``i dt_out`` exactly, and ``n_sub - 1``
+    equal steps between two samples."""
+    return _floordiv(k, n_sub).astype(float) * dt_out + dt_step * _mod(k, n_sub).astype(float)
+
+
+def _end_step(y: _State, ta, t1, params: _Params) -> _State:
+    """Close a step at ``t1``. A step that ran out of passes (``ta < t1``) stops the block:
+    reported, never silent (``n_unresolved`` makes the status ``STATUS_UNRESOLVED``, an error
+    if ``throw``). A block past ``eta`` moving outward is flagged overturned; its state is then
+    frozen (``_pass`` moves nothing once ``overturned``)."""
+    unresolved = ta < t1
+    y = _State(
+        theta=_where(unresolved, 0.0, y.theta),
+        theta_dot=_where(unresolved, 0.0, y.theta_dot),
+        s=_where(unresolved, 0.0, y.s),
+        overturned=y.overturned,
+        n_impacts=y.n_impacts,
+        t_last_impact=y.t_last_impact,
+        theta_max=y.theta_max,
+        n_unresolved=y.n_unresolved + unresolved,
+    )
+    goes_over = (y.s != 0) & (jnp.abs(y.theta) > params.eta) & (y.theta * y.theta_dot > 0)
+    return eqx.tree_at(lambda z: z.overturned, y, _where(goes_over, 1.0, y.overturned))
+
+
+def _run(
+    y0: _State,
+    record: _Record,
+    params: _Params,
+    n_out,
+    *,
+    n_sub,
+    one_sided,
+    max_impacts,
+    loop_kind,
+    checkpoints,
+):
+    """The whole record as one loop of passes (see the module docstring, "Design").
+
+    Each iteration is one ``_pass`` of the step in progress; a pass that reaches the step end
+    closes the step (``_end_step``) and, at a sample, saves the state. The loop stops after
+    ``(n_out - 1) n_sub`` steps: ``n_out`` is data, so records of any length up to the
+    padded length of ``record`` share one compilation.
+    """
+    n_pad = record.ag.shape[0]
+    dt_out = record.dt
+    dt_step = dt_out / n_sub
+    n_steps = (n_out - 1) * n_sub
+
+    def cond(c):
+        return c.k < n_steps
+
+    def body(c):
+        active = c.k < n_steps  # False only for a finished record of a vmap batch
+        t1 = _step_time(c.k + 1, n_sub, dt_out, dt_step)
+        line = record.line(_step_time(c.k, n_sub, dt_out, dt_step), t1)
+        y, ta, hit = _pass(c.y, c.ta, c.hit, t1, line, record, params, one_sided)
+        # A step may explore max_impacts + 1 times, each exploration that finds a crossing
+        # followed by its impact pass; then it ends, resolved (ta = t1) or not.
+        passes = c.passes + (~c.hit.pending).astype(jnp.int32)
+        ends = ~hit.pending & ((ta >= t1) | (passes > max_impacts))
+        y = jax.tree.map(lambda a, b: _where(ends, a, b), _end_step(y, ta, t1, params), y)
+        k = c.k + ends.astype(jnp.int32)
+        save = active & ends & (_mod(k, n_sub) == 0)
+        i = jnp.minimum(_floordiv(k, n_sub), n_pad - 1)
+        new = _series(y)
+        # field by field: inside the loop the buffers are not ordinary pytree leaves
+        out = _Series(
+            *(
+                eqxi.buffer_at_set(getattr(c.out, f.name), i, getattr(new, f.name), pred=save)
+                for f in dataclasses.fields(_Series)
+            )
+        )
+        return _Carry(
+            y=y,
+            ta=_where(ends, t1, ta),
+            k=k,
+            passes=_where(ends, 0, passes),
+            hit=hit,
+            out=out,
+        )
+
+    out0 = jax.tree.map(lambda v: jnp.zeros(n_pad, v.dtype).at[0].set(v), _series(y0))
+    zero = jnp.zeros((), jnp.int32)
+    t0 = jnp.zeros_like(y0.theta)
+    hit0 = _Hit(pending=jnp.zeros((), bool), tau=t0, t_hi=t0)
+    carry0 = _Carry(y=y0, ta=t0, k=zero, passes=zero, hit=hit0, out=out0)
+    ag_v0 = None if record.ag_v is None else record.ag_v[0]
+    carry0 = _entangle(carry0, (params, record.ag[0], ag_v0, record.dt))
+    carry = eqxi.while_loop(
+        cond,
+        body,
+        carry0,
+        max_steps=(n_pad - 1) * n_sub * 2 * (max_impacts + 1),
+        buffers=lambda c: c.out,
+        kind=loop_kind,
+        checkpoints=checkpoints,
+    )
+    carry = _entangle(carry)
+    return carry.out, carry.y
+
+
+def _entangle(tree, others=()):
+    """``tree`` with a zero added to each float leaf that depends on every float leaf of
+    ``tree`` and ``others``: the values are unchanged, and so are the derivatives.
+
+    Why: under ``jvp``/``grad`` the checkpointed loop first finds which carried values depend
+    on the inputs (a fixed point over traces of the body) and which receive cotangents (another
+    one). Entangled before and after the loop, every carried value does so from the start and
+    each search ends after one trace of the body instead of three: it halves the time to
+    trace ``grad`` of a run.
     """
 
-    one_sided: bool = eqx.field(static=True)
-    max_impacts: int = eqx.field(static=True)
-    loop_kind: str = eqx.field(static=True)
+    def is_float(x):
+        return jnp.issubdtype(jnp.result_type(x), jnp.floating)
 
-    term_structure = diffrax.AbstractTerm
-    interpolation_cls = diffrax.LocalLinearInterpolation
+    # Arrays (the saved series) take part through their first element: O(1), not O(length).
+    total = sum(
+        x if jnp.ndim(x) == 0 else x[0] for x in jax.tree.leaves((tree, others)) if is_float(x)
+    )
+    zero = _where(jnp.isfinite(total), 0.0 * total, 0.0)  # 0 * inf would be NaN
 
-    def order(self, terms):
-        return 5
+    def add(x):
+        if not is_float(x):
+            return x
+        return x + zero if jnp.ndim(x) == 0 else x.at[0].add(zero)
 
-    def init(self, terms, t0, t1, y0, args):
-        return None
+    return jax.tree.map(add, tree)
 
-    def func(self, terms, t0, y0, args):
-        return terms.vf(t0, y0, args)
 
-    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
-        del terms, solver_state, made_jump
-        params, record = args
-        line = record.line(t0, t1)
+# --------------------------------------------------------------------------- errors
 
-        def cond(carry):
-            _, ta, k = carry
-            return (ta < t1) & (k <= self.max_impacts)
+_FAULT_GEOMETRY, _FAULT_E, _FAULT_START, _FAULT_RECORD = 1, 2, 3, 4
 
-        def body(carry):
-            y, ta, k = carry
-            y, ta = _pass(y, ta, t1, line, record, params, self.one_sided)
-            return y, ta, k + 1
 
-        y, ta, _ = eqxi.while_loop(
-            cond,
-            body,
-            (y0, t0, jnp.zeros((), jnp.int32)),
-            max_steps=self.max_impacts + 1,
-            kind=self.loop_kind,
-        )
-        # More impacts than max_impacts in this step: stop the block (reported, never silent:
-        # n_unresolved makes the status STATUS_UNRESOLVED, an error if throw).
-        unresolved = ta < t1
-        y = _State(
-            theta=jnp.where(unresolved, 0.0, y.theta),
-            theta_dot=jnp.where(unresolved, 0.0, y.theta_dot),
-            s=jnp.where(unresolved, 0.0, y.s),
-            overturned=y.overturned,
-            n_impacts=y.n_impacts,
-            t_last_impact=y.t_last_impact,
-            theta_max=y.theta_max,
-            n_unresolved=y.n_unresolved + unresolved,
-        )
-        goes_over = (y.s != 0) & (jnp.abs(y.theta) > params.eta) & (y.theta * y.theta_dot > 0)
-        y = eqx.tree_at(lambda z: z.overturned, y, jnp.where(goes_over, 1.0, y.overturned))
-        frozen = y0.overturned > 0
-        y1 = jax.tree.map(lambda old, new: jnp.where(frozen, old, new), y0, y)
-        return y1, None, dict(y0=y0, y1=y1), None, diffrax.RESULTS.successful
+def _fault_message(code: int, one_sided: bool) -> str:
+    """What is wrong with a traced input, and the fix (``code``: the first failed check)."""
+    side = " (and theta0 >= 0 one-sided)" if one_sided else ""
+    return {
+        _FAULT_GEOMETRY: "the block's b and h [m] must be positive and finite, and its mass and "
+        "inertia finite; check the b and h given to rj.Block.",
+        _FAULT_E: "e (restitution, dimensionless) must be in (0, 1]; pass a smaller e.",
+        _FAULT_START: f"theta0 must satisfy |theta0| < eta [rad]{side}, and theta0 and "
+        "theta_dot0 be finite; give a smaller theta0.",
+        _FAULT_RECORD: "the record's ag [m/s^2] has non-finite samples (NaN/inf); clean the "
+        "record.",
+    }[code]
+
+
+_STATE_MESSAGES = {
+    STATUS_NONFINITE: "the state became non-finite (NaN/inf).",
+    STATUS_UNSTABLE: f"p*dt_step exceeds {P_DT_LIMIT}; pass a smaller dt [s].",
+    STATUS_UNRESOLVED: "a solver step needed more impacts than max_impacts_per_step; raise "
+    "max_impacts_per_step or pass a smaller dt [s].",
+}
 
 
 # --------------------------------------------------------------------------- public API
@@ -677,9 +853,15 @@ def simulate_housner(
     $I_O \ddot\theta = -m g R \sin(\eta - \theta) - m a_g R \cos(\eta - \theta)$ for
     $\theta > 0$ (mirrored for $\theta < 0$), $\dot\theta \to e \dot\theta$ at each impact.
 
+    Compiles once per bucket of record lengths (:mod:`rockjax.compilation`): called with
+    concrete inputs, the record is padded to ``rockjax.compilation.bucket_length(n)`` samples
+    and its length passed as data, so a loop over records of different lengths and steps
+    compiles once. Inside ``jit``/``vmap``/``grad`` the caller's transform fixes the shapes.
+
     Args:
         block: The block; only ``b`` and ``h`` (and ``m``, for the energy) matter.
-        motion: Ground motion; ``None`` for free rocking (then ``duration`` is required).
+        motion: Ground motion, a :class:`rockjax.GroundMotion`; ``None`` for free rocking
+            (then ``duration`` is required).
         e: Coefficient of restitution [-]: two-sided ``0 < e <= 1`` (default ``e_H``, Eq. (2));
             one-sided ``0 < |e| <= 1``, its magnitude is used (default ``|e_1sr|``, Eq. (5)).
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade, ``theta >= 0``).
@@ -697,10 +879,13 @@ def simulate_housner(
             there, and the run is an error (``throw``) or has ``STATUS_UNRESOLVED``; raise it
             or pass a smaller ``dt``. Chatter that provably dies out below the uplift
             threshold is put to rest by the rest rule and does not count.
-        adjoint: diffrax adjoint; default ``RecursiveCheckpointAdjoint`` (reverse mode, ``grad``).
-            Pass ``diffrax.ForwardMode()`` for ``jvp``/``jacfwd``.
-        throw: Raise (also inside ``jit``) on a non-finite state or an unresolved step; if
-            False report it in ``Response.status`` (for batches).
+        adjoint: ``None`` or ``diffrax.RecursiveCheckpointAdjoint()`` (reverse mode, ``grad``;
+            its ``checkpoints`` is honoured), or ``diffrax.ForwardMode()`` for
+            ``jvp``/``jacfwd``.
+        throw: Raise (also inside ``jit``) on an invalid traced input, a non-finite state or an
+            unresolved step; if False report it in ``Response.status`` (for batches: a lane
+            with an invalid input, e.g. ``e > 1`` or ``|theta0| >= eta``, gets
+            ``STATUS_BAD_INPUT`` and NaN histories, and the other lanes run as alone).
 
     Returns:
         A :class:`rockjax.Response` at the record samples (or every ``dt``). ``energy`` is
@@ -719,15 +904,29 @@ def simulate_housner(
     """
     check_choice("mode", mode, MODES)
     one_sided = mode == "one_sided"
-    if not (isinstance(max_impacts_per_step, int) and max_impacts_per_step >= 1):
+    if motion is not None and not isinstance(motion, GroundMotion):
+        raise ValueError(
+            f"motion must be a rockjax GroundMotion (or None for free rocking); got a "
+            f"{type(motion).__name__}. Wrap the accelerations with their step: "
+            "rj.GroundMotion(ag=ag, dt=0.01) in m/s^2, or rj.GroundMotion.from_g(ag_g, dt=0.01) "
+            "in g."
+        )
+    if isinstance(max_impacts_per_step, bool) or not (
+        isinstance(max_impacts_per_step, int) and max_impacts_per_step >= 1
+    ):
         raise ValueError(
             f"max_impacts_per_step must be an int >= 1; got {max_impacts_per_step!r}. Use the default, 64."
         )
-    if dt is not None and not (np.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be a positive time step in s; got dt={dt}. Or leave dt=None.")
-    if duration is not None and not (np.isfinite(duration) and duration > 0):
-        raise ValueError(f"duration must be a positive time in s; got duration={duration}.")
+    if e is not None:
+        check_scalar("e", e, "[-]", "e.g. e=0.9, or e=None for the paper's default.")
+    check_scalar("theta0", theta0, "rad", "e.g. theta0=0.01.")
+    check_scalar("theta_dot0", theta_dot0, "rad/s", "e.g. theta_dot0=0.0.")
+    if dt is not None:
+        check_positive("dt", dt, "s", "Or leave dt=None.", scalar=True)
+    if duration is not None:
+        check_positive("duration", duration, "s", "e.g. duration=10.0.", scalar=True)
     _check_theta0(theta0, theta_dot0, block, one_sided)
+    loop_kind, checkpoints = _loop_kind(adjoint)
 
     if motion is None:
         if duration is None:
@@ -736,13 +935,22 @@ def simulate_housner(
                 "or pass a GroundMotion."
             )
         dt_out = DEFAULT_DT if dt is None else float(dt)
-        n_out = int(math.floor(duration / dt_out + 1e-9)) + 1
-        ag = jnp.zeros(n_out)
+        n_out = check_samples(duration, dt_out)
+        ag = np.zeros(n_out)
         ag_v = None
         dt_max = None
     else:
         dt_out = motion.dt
-        n_out = motion.n if duration is None else int(math.floor(duration / dt_out + 1e-9)) + 1
+        n_out = motion.n if duration is None else check_samples(duration, dt_out)
+        for label, arr in (("ag", motion.ag), ("ag_v", motion.ag_v)):
+            a = None if arr is None else concrete(arr)
+            if a is not None and not np.all(np.isfinite(a)):
+                bad = np.flatnonzero(~np.isfinite(a))
+                raise ValueError(
+                    f"{label} of record {motion.name!r} has {bad.size} non-finite samples "
+                    f"(first at index {bad[0]}, t={bad[0] * dt_out:.4f} s) [m/s^2]. Clean or "
+                    "trim the record first."
+                )
         ag = _fit(motion.ag, n_out)
         ag_v = None if motion.ag_v is None else _fit(motion.ag_v, n_out)
         dt_max = dt
@@ -759,47 +967,150 @@ def simulate_housner(
             f"{P_DT_LIMIT}); pass dt <= {P_DT_TARGET / float(np.max(p)):.4g} s or leave dt=None."
         )
 
-    block = jax.tree.map(lambda x: jnp.asarray(x, dtype=float), block)
     default_e = e is None
     if default_e:
         e = e_isr(block.eta) if one_sided else e_housner(block.eta)
     _check_e(e, one_sided, default=default_e)
+    # Compile once per bucket: with nothing traced the record is padded (its last sample
+    # repeated, which the solver's evaluation beyond the end already holds) and its length
+    # passed as data. Under the caller's jit/vmap/grad their transform fixes the shapes.
+    traced = is_traced(block, ag, ag_v, e, theta0, theta_dot0)
+    n_pad = n_out if traced else bucket_length(n_out)
+    if not traced:
+        notice_once(
+            (
+                "housner",
+                n_pad,
+                n_sub,
+                one_sided,
+                max_impacts_per_step,
+                loop_kind,
+                ag_v is None,
+            ),
+            f"rockjax: compiling the Housner solver for records of <= {n_pad} samples "
+            "(once per session)...",
+        )
+    block = jax.tree.map(lambda x: jnp.asarray(x, dtype=float), block)
     e = jnp.asarray(e, dtype=float)
-    return _simulate(
+    # An eager call checks in Python, after the run: a compiled program with error callbacks
+    # (eqx.error_if) cannot go into the persistent compilation cache.
+    resp, fault = _simulate(
         block,
-        ag,
-        ag_v,
+        pad_to(ag, n_pad),
+        None if ag_v is None else pad_to(ag_v, n_pad),
         jnp.abs(e) if one_sided else e,
         jnp.asarray(theta0, dtype=float),
         jnp.asarray(theta_dot0, dtype=float),
-        dt_out=float(dt_out),
+        jnp.asarray(dt_out, dtype=float),
+        jnp.asarray(n_out, dtype=jnp.int32),
         n_sub=n_sub,
         one_sided=one_sided,
         max_impacts=max_impacts_per_step,
-        adjoint=adjoint,
-        throw=throw,
+        loop_kind=loop_kind,
+        checkpoints=checkpoints,
+        throw=throw and traced,
+    )
+    if throw and not traced:
+        _raise_on_failure(int(resp.status), int(fault), one_sided)
+    if n_pad == n_out:
+        return resp
+
+    # Padded only when nothing is traced: the outputs are concrete, and cut on the host (an
+    # eager slice of a device array would compile once per length).
+    def cut(x):
+        return jax.device_put(np.asarray(x)[:n_out])
+
+    extras = dict(resp.extras)
+    for key in ("n_impacts", "t_last_impact", "pivot"):
+        extras[key] = cut(extras[key])
+    return eqx.tree_at(
+        lambda r: (r.t, r.theta, r.theta_dot, r.d, r.energy, r.extras),
+        resp,
+        (cut(resp.t), cut(resp.theta), cut(resp.theta_dot), cut(resp.d), cut(resp.energy), extras),
+    )
+
+
+def _raise_on_failure(status: int, fault: int, one_sided: bool) -> None:
+    """The errors ``throw`` asks for, raised after an eager run (as ``eqx.error_if`` would)."""
+    if status == STATUS_BAD_INPUT:
+        raise ValueError(f"simulate_housner: {_fault_message(fault, one_sided)}")
+    if status != STATUS_OK:
+        raise RuntimeError(
+            f"simulate_housner: {_STATE_MESSAGES[status]} Pass throw=False to get "
+            "Response.status instead."
+        )
+
+
+def _loop_kind(adjoint) -> tuple[str, int | None]:
+    """The ``equinox.internal.while_loop`` kind (and checkpoints) the adjoint differentiates."""
+    if adjoint is None:
+        return "checkpointed", None
+    if isinstance(adjoint, diffrax.RecursiveCheckpointAdjoint):
+        return "checkpointed", adjoint.checkpoints
+    if isinstance(adjoint, diffrax.ForwardMode):
+        return "lax", None  # jvp cannot go through the checkpointed loop's custom_vjp
+    raise ValueError(
+        f"adjoint must be None or diffrax.RecursiveCheckpointAdjoint() (reverse mode, grad), or "
+        f"diffrax.ForwardMode() (jvp); got {type(adjoint).__name__}."
     )
 
 
 @eqx.filter_jit
 def _simulate(
-    block, ag, ag_v, e, theta0, theta_dot0, *, dt_out, n_sub, one_sided, max_impacts, adjoint, throw
+    block,
+    ag,
+    ag_v,
+    e,
+    theta0,
+    theta_dot0,
+    dt_out,
+    n_out,
+    *,
+    n_sub,
+    one_sided,
+    max_impacts,
+    loop_kind,
+    checkpoints,
+    throw,
 ):
-    n_out = ag.shape[0]
+    n_pad = ag.shape[0]
     dt_step = dt_out / n_sub
-    t_out = jnp.arange(n_out) * dt_out
-    # Step ends: every output sample exactly, and n_sub - 1 equal steps between two samples.
-    t_steps = (t_out[:-1, None] + dt_step * jnp.arange(n_sub)[None, :]).reshape(-1)
-    t_steps = jnp.concatenate([t_steps, t_out[-1:]])
-    n_steps = t_steps.shape[0] - 1
+    t_out = jnp.arange(n_pad) * dt_out
 
+    # Traced inputs cannot be checked in Python. A lane with an impossible one is not run
+    # (benign stand-ins below, NaN histories, STATUS_BAD_INPUT), or with throw it raises,
+    # naming the input; the geometry is checked first so that b = 0 is not blamed on theta0.
     eta, p = block.eta, block.p
-    e = eqx.error_if(e, (e <= 0) | (e > 1), "e (restitution, dimensionless) must be in (0, 1].")
-    theta0 = eqx.error_if(
-        theta0,
-        (jnp.abs(theta0) >= eta) | (one_sided & (theta0 < 0)),
-        "theta0 must satisfy |theta0| < eta [rad] (and theta0 >= 0 one-sided).",
-    )
+    geometry_ok = (block.b > 0) & (block.h > 0) & (block.m > 0) & (p > 0)
+    for x in (block.b, block.h, block.m, block.I_O, p):
+        geometry_ok = geometry_ok & jnp.isfinite(x)
+    e_ok = jnp.isfinite(e) & (e > 0) & (e <= 1)
+    start_ok = jnp.isfinite(theta0) & jnp.isfinite(theta_dot0) & (jnp.abs(theta0) < eta)
+    if one_sided:
+        start_ok = start_ok & (theta0 >= 0) & ((theta0 > 0) | (theta_dot0 >= 0))
+    record_ok = jnp.all(jnp.isfinite(ag))
+    if ag_v is not None:
+        record_ok = record_ok & jnp.all(jnp.isfinite(ag_v))
+    oks = (geometry_ok, e_ok, start_ok, record_ok)
+    bad = ~(geometry_ok & e_ok & start_ok & record_ok)
+    # the first failed check (0: none), for the message of an eager call
+    fault = jnp.int32(0)
+    for code in range(len(oks), 0, -1):
+        fault = jnp.where(oks[code - 1], fault, jnp.int32(code))
+    if throw:
+        for code, ok in enumerate(oks, start=1):
+            if code == _FAULT_START:  # a zero-width block is blamed on b, not on theta0
+                ok = ok | ~geometry_ok
+            e = eqx.error_if(e, ~ok, f"simulate_housner: {_fault_message(code, one_sided)}")
+
+    def benign(x, stand_in):
+        return jnp.where(bad, stand_in, x)
+
+    eta, p = benign(eta, 0.1), benign(p, 1.0)
+    e, theta0, theta_dot0 = benign(e, 0.5), benign(theta0, 0.0), benign(theta_dot0, 0.0)
+    ag = benign(ag, 0.0)
+    ag_v = None if ag_v is None else benign(ag_v, 0.0)
+
     params = _Params(
         p2_over_g=p**2 / G,
         sin_eta=jnp.sin(eta),
@@ -825,95 +1136,85 @@ def _simulate(
         theta_max=jnp.abs(theta0),
         n_unresolved=zero,
     )
-    adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
-    if isinstance(adjoint, diffrax.ForwardMode):
-        loop_kind = "lax"  # jvp cannot go through the checkpointed loop's custom_vjp
-    elif isinstance(adjoint, diffrax.DirectAdjoint):
-        loop_kind = "bounded"
-    else:
-        loop_kind = "checkpointed"
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(_vector_field),
-        _HousnerSolver(one_sided=one_sided, max_impacts=max_impacts, loop_kind=loop_kind),
-        t0=t_steps[0],
-        t1=t_steps[-1],
-        dt0=None,
-        y0=y0,
-        args=(params, record),
-        saveat=diffrax.SaveAt(
-            subs=[
-                diffrax.SubSaveAt(t0=True, steps=True, fn=_series),
-                diffrax.SubSaveAt(t1=True),
-            ]
-        ),
-        stepsize_controller=diffrax.StepTo(ts=t_steps),
-        adjoint=adjoint,
-        max_steps=n_steps,
-        throw=False,
+    ys, final = _run(
+        y0,
+        record,
+        params,
+        n_out,
+        n_sub=n_sub,
+        one_sided=one_sided,
+        max_impacts=max_impacts,
+        loop_kind=loop_kind,
+        checkpoints=checkpoints,
     )
-    ys, final = sol.ys
     too_coarse = p * dt_step > P_DT_LIMIT
     if throw:
         # Every output below is computed from the checked ys, so the checks cannot be
         # dropped as dead code whichever outputs the caller keeps.
         finite = jnp.all(jnp.isfinite(ys.theta)) & jnp.all(jnp.isfinite(ys.theta_dot))
-        ys, final = eqx.error_if(
-            (ys, final), ~finite, "simulate_housner: the state became non-finite (NaN/inf)."
-        )
-        ys, final = eqx.error_if(
-            (ys, final),
-            too_coarse,
-            f"simulate_housner: p*dt_step exceeds {P_DT_LIMIT}; pass a smaller dt [s].",
-        )
-        ys, final = eqx.error_if(
-            (ys, final),
-            jnp.any(final.n_unresolved > 0),
-            "simulate_housner: a solver step needed more impacts than max_impacts_per_step; "
-            "raise max_impacts_per_step or pass a smaller dt [s].",
-        )
-    final = jax.tree.map(lambda x: x[-1], final)
-    ys = jax.tree.map(lambda x: x[::n_sub], ys)
+        for failed, code in (
+            (~finite, STATUS_NONFINITE),
+            (too_coarse, STATUS_UNSTABLE),
+            (final.n_unresolved > 0, STATUS_UNRESOLVED),
+        ):
+            msg = f"simulate_housner: {_STATE_MESSAGES[code]}"
+            ys, final = eqx.error_if((ys, final), failed, msg)
     theta, theta_dot = ys.theta, ys.theta_dot
     finite = jnp.all(jnp.isfinite(theta)) & jnp.all(jnp.isfinite(theta_dot))
     status = jnp.where(
-        finite,
+        bad,
+        STATUS_BAD_INPUT,
         jnp.where(
-            too_coarse,
-            STATUS_UNSTABLE,
-            jnp.where(final.n_unresolved > 0, STATUS_UNRESOLVED, STATUS_OK),
+            finite,
+            jnp.where(
+                too_coarse,
+                STATUS_UNSTABLE,
+                jnp.where(final.n_unresolved > 0, STATUS_UNRESOLVED, STATUS_OK),
+            ),
+            STATUS_NONFINITE,
         ),
-        STATUS_NONFINITE,
     )
 
-    m, R = block.m, block.R
-    abs_theta = jnp.abs(theta)
-    d = jnp.sign(theta) * 0.5 * block.b * (1.0 - jnp.cos(theta)) + block.h * jnp.sin(theta)
-    energy = 0.5 * block.I_O * theta_dot**2 + m * G * R * (jnp.cos(eta - abs_theta) - jnp.cos(eta))
-    return Response(
+    # The polynomial sine and cosine (rotations stay below 2 rad) on the whole padded series;
+    # cos(eta - |theta|) - cos(eta) = cos(eta) (cos(theta) - 1) + sin(eta) |sin(theta)|.
+    sin_th, cos_th = _sincos(theta)
+    d = jnp.sign(theta) * 0.5 * block.b * (1.0 - cos_th) + block.h * sin_th
+    potential = jnp.cos(eta) * (cos_th - 1.0) + jnp.sin(eta) * jnp.abs(sin_th)
+    energy = 0.5 * block.I_O * theta_dot**2 + block.m * G * block.R * potential
+
+    def not_run(x):
+        return jnp.where(bad, jnp.nan, x)
+
+    resp = Response(
         t=t_out,
-        theta=theta,
-        theta_dot=theta_dot,
-        d=d,
+        theta=not_run(theta),
+        theta_dot=not_run(theta_dot),
+        d=not_run(d),
         overturned=final.overturned > 0,
         status=status,
-        theta_max=final.theta_max,
-        eta=eta,
+        theta_max=not_run(final.theta_max),
+        eta=block.eta,
         b=block.b,
-        energy=energy,
+        energy=not_run(energy),
         extras={
             "n_impacts": ys.n_impacts.astype(jnp.int32),
             "t_last_impact": ys.t_last_impact,
             "pivot": ys.s,
             "n_unresolved": final.n_unresolved.astype(jnp.int32),
-            "dt": jnp.asarray(dt_step),
+            "dt": dt_step,
         },
     )
+    return resp, fault
 
 
-def _fit(a, n):
-    """``a`` truncated or zero-padded to ``n`` samples."""
-    a = jnp.asarray(a, dtype=float)
-    return a[:n] if a.shape[0] >= n else jnp.pad(a, (0, n - a.shape[0]))
+def _fit(a, n: int):
+    """``a`` truncated or zero-padded to ``n`` samples (in NumPy when concrete: no compile per
+    length)."""
+    v = concrete(a)
+    if v is None:
+        a = jnp.asarray(a, dtype=float)
+        return a[:n] if a.shape[0] >= n else jnp.pad(a, (0, n - a.shape[0]))
+    return v[:n] if v.shape[0] >= n else np.pad(v, (0, n - v.shape[0]))
 
 
 def _check_e(e, one_sided: bool, default: bool) -> None:

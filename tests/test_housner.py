@@ -9,11 +9,14 @@ similarity (same page, "Similarity"), and central finite differences for derivat
 Broadband records against an event-driven solver: tests/test_housner_events.py.
 """
 
+import logging
 import math
 
 import diffrax
+import equinox as eqx
 import jax
 import jax.numpy as jnp
+import jaxtyping
 import numpy as np
 import pytest
 from helpers import housner_time_to_impact
@@ -22,7 +25,7 @@ from scipy.integrate import quad
 import rockjax as rj
 from rockjax.constants import G
 from rockjax.housner import REST_HORIZON
-from rockjax.response import STATUS_NONFINITE, STATUS_OK, STATUS_UNSTABLE, find_peaks
+from rockjax.response import STATUS_BAD_INPUT, STATUS_OK, STATUS_UNSTABLE, find_peaks
 
 # Energy is conserved between impacts up to Tsit5's error, (p dt)^6 ~ 1e-15 per step at
 # p dt = 0.005, over a few hundred steps; the impact map is exact.
@@ -444,16 +447,19 @@ def test_grad_and_jvp_match_finite_differences_for_record_amplitude(block):
 # ----------------------------------------------------------------------------- errors, status
 
 
-def test_nonfinite_state_raises_under_jit_or_reports_status(block):
+def test_nonfinite_record_sample_is_refused_eagerly_under_jit_and_in_a_batch(block):
     ag = np.zeros(201)
-    ag[50] = np.nan  # only reachable through a traced record: GroundMotion rejects it eagerly
+    ag[50] = np.nan  # GroundMotion rejects it when built: put in afterwards, or traced
+    still = eqx.tree_at(lambda g: g.ag, rj.GroundMotion(ag=np.zeros(201), dt=0.01), ag)
+    with pytest.raises(ValueError, match=r"ag of record .* non-finite"):
+        rj.simulate_housner(block, still)  # at rest: the NaN would never reach the state
 
     def status(ag, throw):
         gm = rj.GroundMotion(ag=ag, dt=0.01)
-        return rj.simulate_housner(block, gm, theta0=0.1, throw=throw).status
+        return rj.simulate_housner(block, gm, throw=throw).status
 
-    assert int(jax.jit(status, static_argnums=1)(ag, False)) == STATUS_NONFINITE
-    with pytest.raises(RuntimeError, match="non-finite"):
+    assert int(jax.jit(status, static_argnums=1)(ag, False)) == STATUS_BAD_INPUT
+    with pytest.raises(RuntimeError, match=r"ag \[m/s\^2\] has non-finite"):
         jax.block_until_ready(jax.jit(status, static_argnums=1)(ag, True))
 
 
@@ -504,3 +510,136 @@ def test_default_e_out_of_range_for_squat_block_raises():
     squat = rj.Block(b=3.0, h=1.0)  # eta = 71.6 deg: e_H = 1 - 1.5 sin^2(eta) < 0
     with pytest.raises(ValueError, match="pass e explicitly"):
         rj.simulate_housner(squat, duration=1.0)
+
+
+# ----------------------------------------------------------------------------- compile once
+
+
+def _pulse(n, dt):
+    """A decaying sine of ``n`` samples at step ``dt`` that rocks the reference block."""
+    t = np.arange(n) * dt
+    ag = 1.6 * G * math.tan(ETA) * np.sin(2.0 * np.pi * t / 0.8) * np.exp(-t / 2.0)
+    return rj.GroundMotion(ag=ag, dt=dt)
+
+
+def test_padded_run_equals_the_unpadded_one(block):
+    # An eager call pads the record to its bucket and passes its length as data; under jit the
+    # record is traced and runs at its own length. Same arithmetic: equal up to rounding.
+    gm = _pulse(457, 0.01)
+    assert rj.compilation.bucket_length(gm.n) > gm.n
+    padded = rj.simulate_housner(block, gm)
+    unpadded = jax.jit(lambda ag: rj.simulate_housner(block, rj.GroundMotion(ag=ag, dt=0.01)))(
+        jnp.asarray(gm.ag)
+    )
+    assert int(padded.extras["n_impacts"][-1]) >= 2
+    assert padded.theta.shape == unpadded.theta.shape == (gm.n,)
+    for got, want in zip(jax.tree.leaves(padded), jax.tree.leaves(unpadded)):
+        got, want = np.asarray(got, dtype=float), np.asarray(want, dtype=float)
+        assert got.shape == want.shape
+        # XLA rounds the two programs differently: near the zero crossings of a series only
+        # an error relative to its amplitude is meaningful.
+        scale = np.max(np.abs(want[np.isfinite(want)]), initial=1.0)
+        np.testing.assert_allclose(got, want, rtol=SAME_RTOL, atol=SAME_RTOL * scale)
+
+
+def test_records_of_other_lengths_and_steps_do_not_compile_again(block):
+    compiles = []
+
+    def listener(event, seconds, **kwargs):
+        if event == "/jax/core/compile/backend_compile_duration":
+            compiles.append(seconds)
+
+    rj.simulate_housner(block, _pulse(300, 0.01))  # compiles the bucket's solver (or reuses it)
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        for n, dt in ((311, 0.01), (520, 0.02), (1234, 0.005)):
+            resp = rj.simulate_housner(block, _pulse(n, dt))
+            assert resp.theta.shape == (n,) and np.asarray(resp.extras["n_impacts"])[-1] >= 1
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    assert compiles == []
+
+
+def test_a_compiling_call_says_so_once(block, caplog):
+    kw = dict(max_impacts_per_step=61)  # a configuration that no other test compiles
+    with caplog.at_level(logging.INFO, logger="rockjax"):
+        rj.simulate_housner(block, _pulse(200, 0.01), **kw)
+        rj.simulate_housner(block, _pulse(300, 0.01), **kw)
+    notes = [r.getMessage() for r in caplog.records if "compiling the Housner" in r.getMessage()]
+    assert notes == [
+        f"rockjax: compiling the Housner solver for records of <= "
+        f"{rj.compilation.bucket_length(200)} samples (once per session)..."
+    ]
+
+
+# ----------------------------------------------------------------------------- batches, bad input
+
+
+def test_bad_lanes_are_flagged_and_the_others_run_as_alone(block):
+    gm = rj.GroundMotion(ag=_sine_records()[1], dt=0.01)
+    b, h = float(block.b), float(block.h)
+
+    def run(e, theta0, b):
+        resp = rj.simulate_housner(rj.Block(b=b, h=h), gm, e=e, theta0=theta0, throw=False)
+        return resp.status, resp.theta, resp.theta_max
+
+    # lanes: good, e > 1, theta0 beyond eta, b = 0, b = 1e200 (inertia overflows), good
+    es = jnp.array([0.9, 1.5, 0.9, 0.9, 0.9, 0.95])
+    theta0s = jnp.array([0.1, 0.1, 1.5, 0.1, 0.1, -0.2]) * ETA
+    bs = jnp.array([b, b, b, 0.0, 1e200, b])
+    status, theta, theta_max = jax.vmap(run)(es, theta0s, bs)
+    bad = STATUS_BAD_INPUT
+    assert np.asarray(status).tolist() == [STATUS_OK, bad, bad, bad, bad, STATUS_OK]
+    assert np.all(np.isnan(np.asarray(theta)[1:5])) and np.all(np.isnan(theta_max[1:5]))
+    for i in (0, 5):
+        alone = run(float(es[i]), float(theta0s[i]), b)
+        assert float(alone[2]) > 0.2 * ETA
+        np.testing.assert_allclose(theta[i], alone[1], rtol=SAME_RTOL, atol=1e-15)
+
+
+def test_a_traced_zero_width_is_blamed_on_b_not_on_theta0(block):
+    gm = rj.GroundMotion(ag=_sine_records()[1], dt=0.01)
+
+    def status(b):
+        return rj.simulate_housner(rj.Block(b=b, h=float(block.h)), gm, theta0=0.01).status
+
+    with pytest.raises(eqx.EquinoxRuntimeError) as info:
+        jax.block_until_ready(jax.vmap(status)(jnp.array([float(block.b), 0.0])))
+    assert "b and h [m] must be positive" in str(info.value)
+    assert "theta0 must satisfy" not in str(info.value)
+
+
+@pytest.fixture
+def user_view():
+    """Without the test-only runtime type checks, which would refuse a wrong type before the
+    library's own check can say what to do."""
+    before = jaxtyping.config.jaxtyping_disable
+    jaxtyping.config.update("jaxtyping_disable", True)
+    yield
+    jaxtyping.config.update("jaxtyping_disable", before)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(duration=1e9), r"shorter duration"),  # refused before allocating 1.6 TB
+        (dict(duration="1.0"), r"duration=1\.0 without quotes"),
+        (dict(duration=1.0, dt="0.01"), r"dt=0\.01 without quotes"),
+        (dict(duration=1.0, e=np.array([0.9, 0.8])), r"\be\b.*vmap"),
+        (dict(duration=1.0, theta0=np.array([0.01, 0.02])), r"\btheta0\b.*vmap"),
+        (dict(duration=1.0, adjoint=diffrax.DirectAdjoint()), r"adjoint must be"),
+    ],
+)
+def test_more_invalid_input_raises_value_error(block, kwargs, match, user_view):
+    with pytest.raises(ValueError, match=match):
+        rj.simulate_housner(block, **kwargs)
+
+
+def test_a_huge_duration_with_a_record_is_refused(block):
+    with pytest.raises(ValueError, match=r"duration=1e\+09 s .* shorter duration"):
+        rj.simulate_housner(block, _pulse(100, 0.01), duration=1e9)
+
+
+def test_an_array_for_the_motion_asks_for_a_ground_motion(block, user_view):
+    with pytest.raises(ValueError, match=r"motion must be a rockjax GroundMotion.*GroundMotion\("):
+        rj.simulate_housner(block, np.zeros(100))

@@ -1,0 +1,194 @@
+"""Benchmark compilation: a loop over records of different lengths, ``jit(grad)``, the disk cache.
+
+Run: ``python benchmarks/bench_compile.py [--dem] [--no-cache] [--no-calibrate]`` (about a
+minute on 2 cores; ``--dem`` adds the same loop with ``simulate_dem``, several minutes).
+
+1. A loop over ten FEMA P695 far-field components of ten different lengths (1 999 to 9 992
+   samples, steps 0.005-0.02 s), each ``rj.simulate_housner(block, record)`` in turn as a
+   user would: the number of XLA compilations of the solver (counted with ``jax.monitoring``:
+   programs named ``_simulate``, and all programs), the first call and the other nine.
+2. ``jax.jit(jax.grad(f))`` with ``f(e) = simulate_housner(block, ricker, e=e).theta_max`` for a
+   20 s Ricker record (dt = 0.01 s): trace-and-lower and XLA compile times, wall and CPU.
+3. The persistent compilation cache (``rockjax.compilation``): the same eager call in two
+   fresh processes sharing a new cache folder (the second finds the first's program on disk),
+   and ``rockjax calibrate`` run twice the same way: the time from the process start to its
+   first line (its header, printed once the imports and the argument checks are done and the
+   fit starts computing) and to its end.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import logging
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+import time
+
+import jax
+import numpy as np
+
+import rockjax as rj
+
+try:  # run as `python benchmarks/bench_compile.py` from the repository root
+    from _timing import load, machine
+except ImportError:  # pragma: no cover
+    sys.path.insert(0, os.path.dirname(__file__))
+    from _timing import load, machine
+
+
+class CompileCounter(logging.Handler):
+    """Counts XLA compilations by program name while active (from ``jax.log_compiles``)."""
+
+    def __init__(self):
+        super().__init__(level=logging.DEBUG)
+        self.names: collections.Counter[str] = collections.Counter()
+        self._loggers = [
+            logging.getLogger("jax._src.dispatch"),
+            logging.getLogger("jax._src.interpreters.pxla"),
+        ]
+        self._propagate = {}
+
+    def emit(self, record):
+        msg = record.getMessage()
+        if msg.startswith("Finished XLA compilation of jit("):
+            self.names[msg[len("Finished XLA compilation of jit(") :].split(")")[0]] += 1
+
+    def __enter__(self):
+        self._log = jax.log_compiles(True)
+        self._log.__enter__()
+        for logger in self._loggers:
+            logger.addHandler(self)
+            self._propagate[logger.name] = logger.propagate
+            logger.propagate = False  # keep stderr quiet
+        return self
+
+    def __exit__(self, *exc):
+        for logger in self._loggers:
+            logger.removeHandler(self)
+            logger.propagate = self._propagate[logger.name]
+        self._log.__exit__(*exc)
+
+
+def loop_over_records(simulate, label: str) -> None:
+    records = rj.records.fema_p695("farfield")
+    chosen, seen = [], set()
+    for rec in records:
+        if rec.n not in seen:
+            seen.add(rec.n)
+            chosen.append(rec)
+        if len(chosen) == 10:
+            break
+    block = rj.Block(b=0.25, h=1.5)
+    lengths = ", ".join(f"{r.n}@{r.dt:g}s" for r in chosen)
+    print(f"\n{label}: ten records of ten lengths ({lengths})")
+    times = []
+    with CompileCounter() as counter:
+        for rec in chosen:
+            t = time.perf_counter()
+            jax.block_until_ready(simulate(block, rec).theta)
+            times.append(time.perf_counter() - t)
+    solver = sum(n for name, n in counter.names.items() if name.startswith("_"))
+    print(
+        f"  compilations: {solver} of the solver ({', '.join(sorted(k for k in counter.names if k.startswith('_')))}), "
+        f"{sum(counter.names.values())} in all"
+    )
+    print(
+        f"  first call {times[0]:.2f} s; the other nine {sum(times[1:]):.2f} s in all "
+        f"(median {np.median(times[1:]) * 1e3:.1f} ms); loop {sum(times):.2f} s"
+    )
+
+
+def grad_compile() -> None:
+    block = rj.Block(b=0.25, h=3.0)
+    ricker = rj.GroundMotion.ricker(pga=3.0, period=0.5, duration=20.0, dt=0.01)
+
+    def theta_max(e):
+        return rj.simulate_housner(block, ricker, e=e).theta_max
+
+    w0, c0 = time.perf_counter(), time.process_time()
+    lowered = jax.jit(jax.grad(theta_max)).lower(0.9)
+    w1, c1 = time.perf_counter(), time.process_time()
+    compiled = lowered.compile()
+    w2, c2 = time.perf_counter(), time.process_time()
+    g = float(compiled(0.9))
+    w3 = time.perf_counter()
+    print("\njit(grad) of theta_max, 20 s Ricker record (dt 0.01 s), 0.25 x 3 m block, e = 0.9:")
+    print(
+        f"  trace+lower {w1 - w0:.2f} s (cpu {c1 - c0:.2f}), XLA compile {w2 - w1:.2f} s "
+        f"(cpu {c2 - c1:.2f}); total {w2 - w0:.2f} s; one run {(w3 - w2) * 1e3:.1f} ms; "
+        f"d theta_max / d e = {g:.6g} rad"
+    )
+
+
+_EAGER = textwrap.dedent(
+    """
+    import time
+    t0 = time.perf_counter()
+    import rockjax as rj
+    rj.enable_compilation_cache()
+    t1 = time.perf_counter()
+    block = rj.Block(b=0.25, h=1.5)
+    gm = rj.GroundMotion.ricker(pga_g=0.3, period=0.5, duration=20.0, dt=0.01)
+    rj.simulate_housner(block, gm).theta.block_until_ready()
+    t2 = time.perf_counter()
+    print(f"{t1 - t0:.2f} {t2 - t1:.2f}")
+    """
+)
+
+
+def _first_line(cmd, env) -> tuple[float, float, str]:
+    """Seconds to the first line ``cmd`` prints and to its end, and that line."""
+    t = time.perf_counter()
+    proc = subprocess.Popen(
+        cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
+    )
+    first = proc.stdout.readline()
+    t_first = time.perf_counter() - t
+    proc.communicate()
+    return t_first, time.perf_counter() - t, first.strip()
+
+
+def persistent_cache(calibrate: bool) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        env = os.environ | {rj.compilation.CACHE_ENV: os.path.join(tmp, "cache")}
+        print("\npersistent cache, one eager simulate_housner call per fresh process:")
+        for run in ("first (compiles, writes the cache)", "second (loads from the cache)"):
+            out = subprocess.run(
+                [sys.executable, "-c", _EAGER], env=env, capture_output=True, text=True, check=True
+            )
+            imp, call = out.stdout.split()
+            print(f"  {run}: import {imp} s, first call {call} s")
+        if not calibrate:
+            return
+        print("\n`rockjax calibrate --b 0.25 --h 1.5`, twice, same cache:")
+        cmd = [sys.executable, "-m", "rockjax.cli", "calibrate", "--b", "0.25", "--h", "1.5"]
+        cmd += ["--out", os.path.join(tmp, "cal")]
+        for run in ("first", "second"):
+            t_first, t_all, line = _first_line(cmd, env)
+            print(
+                f"  {run}: first line after {t_first:.2f} s ({line[:60]!r}...); done in {t_all:.1f} s"
+            )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dem", action="store_true", help="also loop the DEM over the records")
+    ap.add_argument("--no-cache", action="store_true", help="skip the persistent-cache runs")
+    ap.add_argument("--no-calibrate", action="store_true", help="skip the `rockjax calibrate` runs")
+    args = ap.parse_args()
+    print(f"rockjax compile benchmark, jax {jax.__version__}; {machine()}; load {load()}")
+    loop_over_records(rj.simulate_housner, "simulate_housner")
+    if args.dem:
+        loop_over_records(rj.simulate_dem, "simulate_dem")
+    grad_compile()
+    if not args.no_cache:
+        persistent_cache(calibrate=not args.no_calibrate)
+    print(f"\nload at the end {load()}")
+
+
+if __name__ == "__main__":
+    main()
