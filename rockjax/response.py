@@ -24,9 +24,10 @@ STATUS_MESSAGES = {
         "stopped there): raise max_impacts_per_step or pass a smaller dt"
     ),
     STATUS_BAD_INPUT: (
-        "an input traced through jit/vmap is out of range (beta or gap negative or not finite; "
-        "block dimensions, E or rho not finite and positive; a non-finite ground acceleration): "
-        "the run was not made; check that lane's inputs"
+        "an input traced through jit/vmap is out of range (block dimensions, E or rho not "
+        "finite and positive; a non-finite ground acceleration; DEM: beta or gap negative or "
+        "not finite; Housner: e outside (0, 1] or |theta0| >= eta): the run was not made; "
+        "check that lane's inputs"
     ),
 }
 
