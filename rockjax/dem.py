@@ -67,10 +67,12 @@ DT_SAFETY = 0.5
 DT_ACCURACY = {"two_sided": 1.0, "one_sided": 0.35}
 """Default ``accuracy`` per mode for the integrated face law (``n_sub="exact"``): the step is
 ``accuracy / (omega_max (1 + zeta))`` [s]. With these the first-impact restitution of parapets
-with h/b 4-24 at beta up to 1.5 beta_DeJong is within 1e-3 of its dt -> 0 limit, and the
-rebound peaks of facades above 1 % of eta within 2 % of a 16x finer step (docs/verification.md,
-"DEM time step: convergence"). Facades need the finer step for their later, small bounces
-(at 0.7: bounce 2 of 0.11 x 2.4 m undamped 2.7 % off, of 0.2 x 1.5 m at beta_Hcrit 4 %)."""
+with h/b 4-24 at beta up to 1.5 beta_DeJong is within 1e-3 of its dt -> 0 limit (measured
+4.6e-4), and the rebound peaks of damped facades above 1 % of eta within 2 % of a 16x finer
+step (measured 1.8 %; undamped, bounces 1-2 within 0.5 %, while a third undamped bounce of
+0.2 x 1.5 m is 3.7 % off: the contact modes ring; docs/verification.md, "DEM time step:
+convergence"). Facades need the finer step for their later, small bounces (at 0.7: bounce 2
+of 0.11 x 2.4 m undamped 2.7 % off, of 0.2 x 1.5 m at beta_Hcrit 4 %)."""
 
 DT_ACCURACY_SUB = {"two_sided": 0.5, "one_sided": 0.35}
 """Default ``accuracy`` per mode with integer ``n_sub`` (point sub-contacts: a point's force
