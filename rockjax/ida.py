@@ -56,6 +56,7 @@ from ._checks import check_choice, check_nonnegative, check_positive, check_scal
 from ._types import ScalarLike
 from .block import Block
 from .constants import G
+from .contact import Joint
 from .dem import simulate_dem, stable_dt
 from .housner import P_DT_TARGET, simulate_housner
 from .motion import GroundMotion
@@ -86,6 +87,7 @@ def ida(
     progress: bool | None = None,
     devices: Sequence[jax.Device] | None = None,
     im: str = "pga",
+    joint: Joint | None = None,
 ) -> xr.Dataset:
     """Incremental dynamic analysis of one block: every record at every scale factor.
 
@@ -120,6 +122,9 @@ def ida(
         im: Intensity measure of the Dataset's ``im`` variable: ``"pga"`` [m/s^2], ``"pgv"``
             [m/s] or ``"sa(T)"``, e.g. ``"sa(0.5)"``, the 5 %-damped pseudo-spectral
             acceleration at T = 0.5 s [m/s^2] (:func:`rockjax.spectra.parse_im`).
+        joint: DEM only: the contact joint (:class:`rockjax.Joint`); default ``rj.Joint()``,
+            the converged joint; ``rj.Joint(n_sub=2)`` is the paper's corner contacts. Named
+            in ``attrs["joint"]``.
 
     Returns:
         An ``xarray.Dataset`` with dims ``("record", "scale")`` and variables
@@ -154,16 +159,18 @@ def ida(
         chunk_size=chunk_size,
         n_devices=len(devices),
         im=im,
+        joint=joint,
     )
     grids = _run(plan, _placement(devices), progress)
     return _assemble(plan, grids)
 
 
-def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.0):
+def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.0, joint=None):
     """Checked run parameters of :func:`ida`: ``(block, config, e_used)``.
 
     ``block`` has Python-float fields; ``config`` holds ``model``, ``mode``, ``beta``, ``e``,
-    ``gap`` (Python floats or None) and ``dt_bound``, the solver step bound [s]; ``e_used`` is
+    ``gap`` (Python floats or None), ``joint`` (the DEM's :class:`rockjax.Joint`, None for
+    Housner) and ``dt_bound``, the solver step bound [s]; ``e_used`` is
     the Housner restitution the runs use (None for the DEM). Raises ValueError as :func:`ida`.
     """
     check_choice("model", model, MODELS)
@@ -183,13 +190,23 @@ def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.
         check_scalar("beta", beta, "s", "ida runs one beta; call it once per value.")
         check_nonnegative("beta", beta, "s")
         beta = float(beta)  # a Python float: static under filter_jit, like the block
-        dt_bound = stable_dt(block, beta, mode=mode, gap=gap)
+        joint = Joint() if joint is None else joint
+        if not isinstance(joint, Joint):
+            raise TypeError(
+                f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
+            )
+        dt_bound = stable_dt(block, beta, mode=mode, gap=gap, joint=joint)
         e_used = None
     else:
         if beta is not None:
             raise ValueError(
                 f"beta (DEM damping) is not a Housner parameter; model='housner' takes e. "
                 f"Got beta={beta}."
+            )
+        if joint is not None:
+            raise ValueError(
+                f"joint (the DEM's contact joint) is not a Housner parameter; got joint={joint!r}. "
+                "Drop it, or use model='dem'."
             )
         if gap != 0.0:
             raise ValueError(
@@ -206,7 +223,9 @@ def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.
         e_used = abs(e_used) if one_sided else e_used  # simulate_housner uses |e| one-sided
         # the step bound simulate_housner picks for a concrete block
         dt_bound = P_DT_TARGET / float(block.p)
-    config = dict(model=model, mode=mode, beta=beta, e=e, gap=float(gap), dt_bound=dt_bound)
+    config = dict(
+        model=model, mode=mode, beta=beta, e=e, gap=float(gap), joint=joint, dt_bound=dt_bound
+    )
     return block, config, e_used
 
 
@@ -304,10 +323,26 @@ class _Plan(NamedTuple):
 
 
 def _plan(
-    block, records, scales, *, model, mode, beta, e, gap, tail, t_end, chunk_size, n_devices, im
+    block,
+    records,
+    scales,
+    *,
+    model,
+    mode,
+    beta,
+    e,
+    gap,
+    tail,
+    t_end,
+    chunk_size,
+    n_devices,
+    im,
+    joint=None,
 ) -> _Plan:
     """Check the inputs of :func:`ida` and cut its runs into chunks (no run yet)."""
-    block, config, e_used = run_config(block, model=model, mode=mode, beta=beta, e=e, gap=gap)
+    block, config, e_used = run_config(
+        block, model=model, mode=mode, beta=beta, e=e, gap=gap, joint=joint
+    )
     im_spec = parse_im(im)
     scales = check_scales(scales)
     if not (isinstance(chunk_size, int) and chunk_size >= 1):
@@ -439,6 +474,7 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
     }
     if config["model"] == "dem":
         attrs["beta"] = config["beta"]
+        attrs["joint"] = repr(config["joint"])
     else:
         attrs["e"] = plan.e_used
         attrs["e_source"] = "given" if plan.e_given else "default (Eq. 2 or Eq. 5)"
@@ -554,13 +590,17 @@ def _group_records(records, tail: float, t_end: float | None = None):
 
 
 @eqx.filter_jit
-def _run_chunk(block, ag, ag_v, rec_idx, scale, *, model, mode, beta, e, gap, dt_rec, dt_bound):
+def _run_chunk(
+    block, ag, ag_v, rec_idx, scale, *, model, mode, beta, e, gap, joint, dt_rec, dt_bound
+):
     """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (vmapped)."""
 
     def one(i, s):
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
         if model == "dem":
-            r = simulate_dem(block, motion, beta=beta, mode=mode, gap=gap, dt=dt_bound, throw=False)
+            r = simulate_dem(
+                block, motion, beta=beta, mode=mode, gap=gap, dt=dt_bound, joint=joint, throw=False
+            )
             d_max = r.extras["d_max"]
         else:
             r = simulate_housner(block, motion, e=e, mode=mode, dt=dt_bound, throw=False)

@@ -297,3 +297,24 @@ def test_progress_bar_per_chunk(dem_ds, capsys):
     xr.testing.assert_identical(ds.drop_attrs(), dem_ds.drop_attrs())
     rj.ida(block, _records(), SCALES, **kw)  # progress=None: stderr is no terminal here
     assert capsys.readouterr().err == ""
+
+
+def test_dem_joint_reaches_every_run():
+    """Reference: single runs with the same joint. The paper's corner contacts
+    (rj.Joint(n_sub=2)) and the default converged joint answer differently (a facade's rebound
+    about doubles), so the joint must reach every run of the batch, and it is recorded."""
+    block = rj.Block(**SMALL)
+    corners = rj.Joint(n_sub=2)
+    rec = _records()[0]
+    ds = rj.ida(block, [rec], SCALES[:2], beta=BETA, tail=0.5, joint=corners, progress=False)
+    assert ds.attrs["joint"] == repr(corners)
+    for k, s in enumerate(SCALES[:2]):
+        g = rj.GroundMotion(ag=s * np.asarray(rec.ag), dt=rec.dt)
+        single = rj.simulate_dem(block, g, beta=BETA, duration=2.0, joint=corners)
+        expect = float(single.theta_max / single.eta)
+        got = float(ds["max_theta_over_eta"][0, k])
+        np.testing.assert_allclose(got, expect, rtol=BATCH_RTOL)
+    default = rj.ida(block, [rec], SCALES[:2], beta=BETA, tail=0.5, progress=False)
+    assert not np.allclose(default["max_theta_over_eta"], ds["max_theta_over_eta"], rtol=1e-3)
+    with pytest.raises(ValueError, match="joint .* is not a Housner parameter"):
+        rj.ida(block, [rec], SCALES[:2], model="housner", joint=corners, progress=False)
