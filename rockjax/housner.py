@@ -129,7 +129,9 @@ REST_HOP = 1e-6
 fraction of ``eta`` under gravity alone (``w^2 / (2 p^2 sin eta) <= REST_HOP eta``) puts it to
 rest whatever the forcing ahead; it then lifts at the exact threshold crossing. This ends
 chatter that the first clause cannot (the forcing nears the threshold before the sequence
-ends), which for ``e`` near 1 would otherwise take hundreds of impacts per step."""
+ends), which for ``e`` near 1 would otherwise take hundreds of impacts per step. A block at
+rest likewise does not start a flight that would rise less than this (a forcing just above the
+threshold that falls back within the step; see ``_uplift``)."""
 
 REST_HORIZON = 8
 """Rest rule: twice the chatter's Zeno time must fit in this many record intervals (the rule
@@ -429,10 +431,22 @@ def _uplift(ta, t1, line: _Line, params: _Params, one_sided: bool):
         ``(lifts, t_uplift, s)``: whether it lifts in the interval, when [s], and the pivot.
     """
 
+    # A block at rest where the excess forcing f (m/s^2 beyond the threshold) is positive but
+    # falls back below zero inside the interval makes a flight from rest of at most
+    # (2/3) k f(ta) tau^2 [rad] (k f the angular acceleration it starts with, tau the time
+    # until f = 0; docs/theory.md, "Housner rest and chatter rule"). Below REST_HOP eta that
+    # flight is not started, as the rest rule gives up a rebound of that size: otherwise a
+    # block put to rest a root-finding tolerance before the forcing drops below the threshold
+    # lifts again at once and chatters in place.
+    k = params.p2_over_g * params.cos_eta
+    hop_limit = REST_HOP * params.eta
+
     def first_positive(fa, fb):
         frac = _clip(-fa / _safe(fb - fa), 0.0, 1.0)
-        t = _where(fa > 0, ta, ta + frac * (t1 - ta))
-        return (fa > 0) | (fb > 0), t
+        tau = frac * (t1 - ta)
+        micro = (fa > 0) & (fb <= 0) & ((2.0 / 3.0) * k * fa * tau * tau <= hop_limit)
+        t = _where(fa > 0, ta, ta + tau)
+        return ((fa > 0) | (fb > 0)) & ~micro, t
 
     a_a, g_a = line.at(ta)
     a_b, g_b = line.at(t1)
