@@ -34,6 +34,7 @@ import jax  # noqa: E402
 # penetrations are ~1e-6 of the block size and energies are compared to 1e-6 relative).
 jax.config.update("jax_enable_x64", True)
 
+from . import building as building  # noqa: E402
 from . import calibration as calibration  # noqa: E402
 from . import campaign as campaign  # noqa: E402  (dask is imported lazily inside)
 from . import compilation as compilation  # noqa: E402
@@ -45,6 +46,9 @@ from . import records as records  # noqa: E402
 from . import relations as relations  # noqa: E402
 from . import spectra as spectra  # noqa: E402
 from .block import Block as Block  # noqa: E402
+from .building import ShearBuilding as ShearBuilding  # noqa: E402
+from .building import floor_spectra as floor_spectra  # noqa: E402
+from .building import wall_top_motion as wall_top_motion  # noqa: E402
 from .calibration import Calibration as Calibration  # noqa: E402
 from .calibration import fit_beta as fit_beta  # noqa: E402
 from .calibration import fit_e as fit_e  # noqa: E402
@@ -83,9 +87,11 @@ __all__ = [
     "GroundMotion",
     "Joint",
     "Response",
+    "ShearBuilding",
     "beta_dejong",
     "beta_hcrit",
     "beta_isr",
+    "building",
     "calibration",
     "campaign",
     "collapse_intervals",
@@ -96,6 +102,7 @@ __all__ = [
     "fit_beta",
     "fit_e",
     "fit_history",
+    "floor_spectra",
     "fragility",
     "ida",
     "identify_pulse",
@@ -115,5 +122,6 @@ __all__ = [
     "simulate_housner",
     "spectra",
     "stable_dt",
+    "wall_top_motion",
     "write_at2",
 ]
