@@ -77,6 +77,9 @@ from .relations import omega_hcrit as omega_hcrit  # noqa: E402
 from .response import Response as Response  # noqa: E402
 from .spectra import response_spectrum as response_spectrum  # noqa: E402
 from .spectra import rotd_spectrum as rotd_spectrum  # noqa: E402
+from .three_branch import ThreeBranchFit as ThreeBranchFit  # noqa: E402
+from .three_branch import ThreeBranchLaw as ThreeBranchLaw  # noqa: E402
+from .three_branch import fit_three_branch as fit_three_branch  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -88,6 +91,8 @@ __all__ = [
     "Joint",
     "Response",
     "ShearBuilding",
+    "ThreeBranchFit",
+    "ThreeBranchLaw",
     "beta_dejong",
     "beta_hcrit",
     "beta_isr",
@@ -102,6 +107,7 @@ __all__ = [
     "fit_beta",
     "fit_e",
     "fit_history",
+    "fit_three_branch",
     "floor_spectra",
     "fragility",
     "ida",

@@ -24,6 +24,12 @@ and the continuation past a crossing is smooth, which makes the crossing time a 
   docs/theory.md, "Housner rest and chatter rule"); otherwise the impacts go on being
   resolved one by one.
 * Overturning: ``|theta| > eta`` while moving outward flags ``overturned`` and freezes the state.
+* Three-branch law (``law=``, docs/three_branch.md): the restoring moment follows a
+  ``rockjax.ThreeBranchLaw`` (uplift threshold, rest rule and overturning rotation with it);
+  its kinks are events like impacts, so steps are cut there.
+* Moving return wall (``wall_motion=``, one-sided; docs/three_branch.md, "Moving return
+  walls"): the stop is at ``theta_w(t) = u_top / h``, impacts restitute the velocity relative
+  to it, and a block at rest rides on it until it would accelerate away faster than the wall.
 
 Design. The whole record is one loop of passes (``_run``, an ``equinox.internal.while_loop``
 of the kind the adjoint can differentiate: ``"checkpointed"`` for ``grad``, ``"lax"`` under
@@ -102,6 +108,7 @@ from .response import (
     STATUS_UNSTABLE,
     Response,
 )
+from .three_branch import ThreeBranchLaw
 
 MODES = ("two_sided", "one_sided")
 
@@ -230,6 +237,29 @@ class _Params(eqx.Module):
     tan_eta: Array
     eta: Array  # [rad]
     e: Array  # restitution magnitude [-]
+    theta_u: Array  # rotation [rad] past which the block overturns (eta for the rigid block)
+    lam_up: Array  # static uplift threshold |a_g| / g_eff [-] at rest (tan eta, rigid block)
+    w2_tiny: Array  # rebound speed^2 [rad^2/s^2] below which the rest rule's 2nd clause rests
+    law: _LawTerms | None  # the three-branch law's restoring terms; None: the rigid block
+
+
+class _LawTerms(eqx.Module):
+    """A :class:`rockjax.ThreeBranchLaw` as the solver uses it (docs/three_branch.md): on the
+    pivot's side, ``u = s theta``, the static capacity is ``Lambda(u) = alpha_k + beta_k
+    tan(eta - u)`` on branch ``k`` (``u < u1``, ``u < u2``, else), so the restoring moment
+    ``m g R cos(eta - u) Lambda`` is ``m g R (alpha_k cos(eta - u) + beta_k sin(eta - u))``."""
+
+    u1: Array  # rotation at d/b = Delta_1 [rad]
+    u2: Array  # rotation at d/b = Delta_2 [rad]
+    alpha: Array  # (3,) [-]
+    beta: Array  # (3,) [-]
+
+    def coefficients(self, u):
+        """``(alpha, beta)`` of the branch holding rotation ``u`` [rad]."""
+        first, plateau = u < self.u1, u < self.u2
+        alpha = _where(first, self.alpha[0], _where(plateau, self.alpha[1], self.alpha[2]))
+        beta = _where(first, self.beta[0], _where(plateau, self.beta[1], self.beta[2]))
+        return alpha, beta
 
 
 class _Line(eqx.Module):
@@ -257,6 +287,35 @@ class _Record(eqx.Module):
     ag: Array  # [m/s^2], one value per sample (padded by repeating the last one)
     ag_v: Array | None
     dt: Array  # sample spacing [s]: data, so records of any step share one compilation
+    # A moving return wall (one-sided; docs/three_branch.md, "Moving return walls"): its
+    # rotation theta_w = u_top / h [rad] and rate [rad/s] at the samples, or None.
+    wall_theta: Array | None = None
+    wall_rate: Array | None = None
+
+    def wall(self, t, t_ref=None):
+        """``(theta_w, theta_w', theta_w'')`` at time ``t`` [rad, rad/s, rad/s^2]: the cubic
+        Hermite fit of the samples' rotation and rate on the interval holding ``t_ref``
+        (default ``t``; a solver step passes its midpoint, so that its ends use its own
+        interval: the wall's acceleration may jump at a sample), exact for a wall whose
+        acceleration is linear between samples."""
+        n = self.wall_theta.shape[0]
+        x = _clip(t / self.dt, 0.0, n - 1.0)
+        x_ref = x if t_ref is None else _clip(t_ref / self.dt, 0.0, n - 1.0)
+        i = jax.lax.stop_gradient(_clip(jnp.floor(x_ref), 0.0, n - 2.0))
+        r = x - i
+        i = i.astype(jnp.int32)
+        p0, p1 = self.wall_theta[i], self.wall_theta[i + 1]
+        m0, m1 = self.wall_rate[i] * self.dt, self.wall_rate[i + 1] * self.dt
+        r2 = r * r
+        theta = (
+            (2 * r2 * r - 3 * r2 + 1) * p0
+            + (r2 * r - 2 * r2 + r) * m0
+            + (3 * r2 - 2 * r2 * r) * p1
+            + (r2 * r - r2) * m1
+        )
+        rate = (6 * r2 - 6 * r) * (p0 - p1) + (3 * r2 - 4 * r + 1) * m0 + (3 * r2 - 2 * r) * m1
+        accel = (12 * r - 6) * (p0 - p1) + (6 * r - 4) * m0 + (6 * r - 2) * m1
+        return theta, rate / self.dt, accel / (self.dt * self.dt)
 
     def _eval(self, ys, t):
         n = ys.shape[0]
@@ -330,10 +389,17 @@ def _theta_ddot(t, theta, s, params: _Params, forcing):
     ag, g_eff = forcing.at(t)
     sin_th, cos_th = _sincos(theta)
     s_sin_eta = s * params.sin_eta
-    return -params.p2_over_g * (
-        cos_th * (g_eff * s_sin_eta + ag * params.cos_eta)
-        + sin_th * (ag * s_sin_eta - g_eff * params.cos_eta)
-    )
+    if params.law is None:
+        return -params.p2_over_g * (
+            cos_th * (g_eff * s_sin_eta + ag * params.cos_eta)
+            + sin_th * (ag * s_sin_eta - g_eff * params.cos_eta)
+        )
+    # Three-branch law (docs/three_branch.md): with u = s theta and v = eta - u,
+    # theta_ddot = -(p^2/g) [s g_eff (alpha cos v + beta sin v) + a_g cos v].
+    alpha, beta = params.law.coefficients(s * theta)
+    cos_v = params.cos_eta * cos_th + s_sin_eta * sin_th
+    sin_v = params.sin_eta * cos_th - s * params.cos_eta * sin_th
+    return -params.p2_over_g * (s * g_eff * (alpha * cos_v + beta * sin_v) + ag * cos_v)
 
 
 def _rk_step(accel, t0, h, theta0, theta_dot0):
@@ -421,11 +487,14 @@ def _hermite_root(u0, du0, u1, du1, xb):
     return x
 
 
-def _uplift(ta, t1, line: _Line, params: _Params, one_sided: bool):
+def _uplift(ta, t1, line: _Line, params: _Params, one_sided: bool, excess=None):
     """First time in ``[ta, t1]`` the linear forcing exceeds the uplift threshold, and the pivot.
 
     Two-sided: ``a_g - tan(eta) g_eff > 0`` lifts onto ``s = -1``, ``-a_g - tan(eta) g_eff > 0``
     onto ``s = +1``; one-sided only the latter. Both are linear in ``t``.
+
+    With a moving wall ``excess`` gives the excess at ``ta`` and ``t1`` instead (see
+    ``_wall_excess``), linear in between.
 
     Returns:
         ``(lifts, t_uplift, s)``: whether it lifts in the interval, when [s], and the pivot.
@@ -448,9 +517,12 @@ def _uplift(ta, t1, line: _Line, params: _Params, one_sided: bool):
         t = _where(fa > 0, ta, ta + tau)
         return ((fa > 0) | (fb > 0)) & ~micro, t
 
+    if excess is not None:
+        lifts_pos, t_pos = first_positive(*excess)
+        return lifts_pos, t_pos, jnp.ones_like(ta)
     a_a, g_a = line.at(ta)
     a_b, g_b = line.at(t1)
-    tan_eta = params.tan_eta
+    tan_eta = params.lam_up  # tan(eta) for the rigid block; the law's threshold otherwise
     lifts_pos, t_pos = first_positive(-a_a - tan_eta * g_a, -a_b - tan_eta * g_b)
     if one_sided:
         return lifts_pos, t_pos, jnp.ones_like(ta)
@@ -494,15 +566,28 @@ def _flight(pred, accel, t0, h, theta0, theta_dot0):
 def _restoring(a_g, g_eff, params: _Params):
     """``(A_+, A_-)`` [rad/s^2]: ``-s theta_ddot`` at ``theta = 0`` on pivot ``s = +-1``.
 
-    From the equation of motion, ``A_s = (p^2 cos(eta) / g) (g_eff tan(eta) + s a_g)``: positive
+    From the equation of motion, ``A_s = (p^2 cos(eta) / g) (g_eff tan(eta) + s a_g)`` (with a
+    three-branch law ``tan(eta)`` becomes its threshold ``lambda_uplift``): positive
     when the forcing is below the uplift threshold on that side, so a flight on pivot ``s`` that
     starts at ``theta = 0`` returns to it.
     """
     k = params.p2_over_g * params.cos_eta
-    return k * (g_eff * params.tan_eta + a_g), k * (g_eff * params.tan_eta - a_g)
+    return k * (g_eff * params.lam_up + a_g), k * (g_eff * params.lam_up - a_g)
 
 
-def _rests(t_imp, w, s_new, line: _Line, record: _Record, params: _Params, one_sided: bool):
+def _wall_excess(t, record: _Record, params: _Params, forcing, t_ref=None):
+    """How much faster than the wall [m/s^2, as ``theta_ddot / k``, ``k = p^2 cos(eta) / g``]
+    a block resting against it at ``theta = theta_w(t)`` would accelerate away from it on its
+    own (pivot +1): it leaves the wall when this turns positive. Without wall motion it is
+    ``-a_g - g_eff tan(eta)``, the fixed wall's uplift excess."""
+    theta_w, _, accel_w = record.wall(t, t_ref)
+    free = _theta_ddot(t, theta_w, jnp.ones_like(theta_w), params, forcing)
+    return (free - accel_w) / (params.p2_over_g * params.cos_eta)
+
+
+def _rests(
+    t_imp, w, s_new, line: _Line, record: _Record, params: _Params, one_sided: bool, t_mid=None
+):
     """The rest rule after an impact at ``t_imp`` with rebound speed ``w = |theta_dot+|`` onto
     pivot ``s_new``. See docs/theory.md, "Housner rest and chatter rule".
 
@@ -524,7 +609,12 @@ def _rests(t_imp, w, s_new, line: _Line, record: _Record, params: _Params, one_s
         ``(rests, hop)``: the decision and, for the first clause, the first hop's height
         ``w^2 / (2 A_new)`` [rad] (added to ``theta_max``).
     """
-    ap0, am0 = _restoring(*line.at(t_imp), params)
+    k = params.p2_over_g * params.cos_eta
+    if record.wall_theta is None:
+        ap0, am0 = _restoring(*line.at(t_imp), params)
+    else:  # relative to the moving wall: A_+ = -(block's free acceleration - wall's)
+        ap0 = -k * _wall_excess(t_imp, record, params, line, t_mid)
+        am0 = ap0
     e = params.e
     if one_sided:
         a_new = a_other = ap0
@@ -543,15 +633,26 @@ def _rests(t_imp, w, s_new, line: _Line, record: _Record, params: _Params, one_s
         ok = ~inside | (ap >= REST_A_MARGIN * ap0)
         return ok if one_sided else ok & (~inside | (am >= REST_A_MARGIN * am0))
 
-    stays = fits & keeps(*_restoring(*record.at(t_end), params), jnp.ones_like(fits))
+    def restoring_at(t):
+        if record.wall_theta is None:
+            return _restoring(*record.at(t), params)
+        a = -k * _wall_excess(t, record, params, record)
+        return a, a
+
+    def restoring_samples(i):
+        if record.wall_theta is None:
+            return _restoring(*record.sample(i), params)
+        return restoring_at(i * record.dt)
+
+    stays = fits & keeps(*restoring_at(t_end), jnp.ones_like(fits))
     # the samples inside (t_imp, t_end), all at once (one gather, a small graph)
     i = jax.lax.stop_gradient(jnp.floor(t_imp / record.dt)).astype(jnp.int32)
     i = i + jnp.arange(1, REST_HORIZON + 1, dtype=jnp.int32)
     inside = i * record.dt < t_end
-    stays = stays & jnp.all(keeps(*_restoring(*record.sample(i), params), inside))
+    stays = stays & jnp.all(keeps(*restoring_samples(i), inside))
     hop = w * w / (2.0 * _safe(_where(ok0, a_new, 1.0)))
     # Second clause: a rebound too small to matter (its gravity-only hop <= REST_HOP eta).
-    tiny = w * w <= 2.0 * REST_HOP * params.eta * params.p2_over_g * G * params.sin_eta
+    tiny = w * w <= params.w2_tiny
     rests = stays | tiny
     return rests, _where(stays, hop, 0.0)
 
@@ -562,6 +663,9 @@ class _Hit(eqx.Module):
     pending: Array  # bool: the next pass resolves an impact
     tau: Array  # the crossing time from the step's cubic fit [s]
     t_hi: Array  # the end of the bracket it lies in [s]
+    # With a three-branch law: the level of u = s theta crossed [rad], 0 for the wall (an
+    # impact) or a kink of the law (u1, u2 > 0: the state is put on it, nothing else changes).
+    level: Array | None = None
 
 
 def _pass(
@@ -587,12 +691,25 @@ def _pass(
     Returns the state, the time it holds at and the hit for the next pass.
     """
     pending = hit.pending
+    moving_wall = record.wall_theta is not None  # static: one-sided with a moving return wall
     # (1) At rest: lift off when the forcing first exceeds the threshold in [ta, t1].
-    lifts, t_up, s_up = _uplift(ta, t1, line, params, one_sided)
+    excess = None
+    t_mid = 0.5 * (ta + t1)  # the step's sample interval, for the wall's cubic
+    if moving_wall:
+        excess = (
+            _wall_excess(ta, record, params, line, t_mid),
+            _wall_excess(t1, record, params, line, t_mid),
+        )
+    lifts, t_up, s_up = _uplift(ta, t1, line, params, one_sided, excess)
     lift_now = (y.s == 0) & lifts & (y.overturned == 0) & ~pending
     s = _where(lift_now, s_up, y.s)
     ta = _where(lift_now, t_up, ta)
     rocking = (s != 0) & (y.overturned == 0)
+    theta_a, theta_dot_a = y.theta, y.theta_dot
+    if moving_wall:  # at rest the block rides on the wall: it lifts with the wall's state
+        wall_up, rate_up, _ = record.wall(ta, t_mid)
+        theta_a = _where(lift_now, wall_up, theta_a)
+        theta_dot_a = _where(lift_now, rate_up, theta_dot_a)
 
     def accel(t, theta):
         return _theta_ddot(t, theta, s, params, line)
@@ -604,45 +721,92 @@ def _pass(
         accel,
         ta,
         _where(pending, hit.tau - ta, h),
-        y.theta,
-        y.theta_dot,
+        theta_a,
+        theta_dot_a,
     )
 
     # (3) Explore: a crossing if u = s theta ends negative, or ends positive after dipping
     # below zero inside the step (a graze; the cubic Hermite fit of u has its turning point
     # below zero). Its time: the fit's first root (bisection, then Newton).
-    u0, du0, u1, du1 = s * y.theta, h * s * y.theta_dot, s * theta_f, h * s * theta_dot_f
-    x_turn, u_turn = jax.lax.cond(
-        eqxi.unvmap_any(~pending & rocking & (du0 < 0) & (du1 > 0) & (u1 >= 0)),
-        lambda: _hermite_turn(u0, du0, u1, du1),
-        lambda: (jnp.ones_like(u1), u1),
+    u0, du0, u1, du1 = s * theta_a, h * s * theta_dot_a, s * theta_f, h * s * theta_dot_f
+    # the gap to the wall: g = u, or theta - theta_w(t) with a moving wall (pivot s = +1)
+    g0, dg0, g1, dg1 = u0, du0, u1, du1
+    if moving_wall:
+        wall_a, rate_a, _ = record.wall(ta, t_mid)
+        wall_b, rate_b, _ = record.wall(t1, t_mid)
+        g0, dg0 = theta_a - wall_a, h * (theta_dot_a - rate_a)
+        g1, dg1 = theta_f - wall_b, h * (theta_dot_f - rate_b)
+    x_turn, g_turn = jax.lax.cond(
+        eqxi.unvmap_any(~pending & rocking & (dg0 < 0) & (dg1 > 0) & (g1 >= 0)),
+        lambda: _hermite_turn(g0, dg0, g1, dg1),
+        lambda: (jnp.ones_like(g1), g1),
     )
-    grazes = (u1 >= 0) & (u0 >= 0) & (u_turn < 0)
-    crossed = ~pending & rocking & (h > 0) & ((u1 < 0) | grazes)
-    xb = _where(u1 < 0, 1.0, x_turn)
-    x = _hermite_root(u0, du0, u1, du1, xb)
+    grazes = (g1 >= 0) & (g0 >= 0) & (g_turn < 0)
+    crossed = ~pending & rocking & (h > 0) & ((g1 < 0) | grazes)
+    if moving_wall:
+        # Lifted off in this step with the excess still positive at its end: the gap's second
+        # derivative stays positive (the excess is linear), so it cannot close. The gap starts
+        # as (t - t_up)^3 and is the difference of two nearly equal rotations: its rounding
+        # must not be taken for an impact (that chattered in place).
+        clear = lift_now & (excess[1] > 0)
+        crossed = crossed & ~clear
+        theta_f = _where(clear, jnp.maximum(theta_f, wall_b), theta_f)
+    xb = _where(g1 < 0, 1.0, x_turn)
+    x = _hermite_root(g0, dg0, g1, dg1, xb)
+    level = None
+    if params.law is not None:
+        # The law's kinks are events too: a step that straddles one loses Tsit5's order
+        # (measured: energy errors of 1e-4 per crossing at p dt = 0.03), so it is cut there.
+        crossed, x, xb, level = _kink_crossings(
+            crossed, x, xb, u0, du0, u1, du1, ~pending & rocking & (h > 0), params.law
+        )
     advance = ~pending & rocking & ~crossed
 
     # (4) Impact: one Newton step on the true trajectory, the impact map, the rest rule.
     theta_tau, theta_dot_tau = theta_f, theta_dot_f
-    t_impact = _clip(hit.tau - theta_tau / _safe(theta_dot_tau), ta, hit.t_hi)
+    if moving_wall:
+        wall_tau, rate_tau, _ = record.wall(hit.tau, t_mid)
+        gap, closing = theta_tau - wall_tau, theta_dot_tau - rate_tau
+        t_wall = _clip(hit.tau - gap / _safe(closing), ta, hit.t_hi)
+    else:
+        t_wall = _clip(hit.tau - theta_tau / _safe(theta_dot_tau), ta, hit.t_hi)
+    if hit.level is None:
+        t_impact = t_wall
+        wall = pending
+        theta_at = jnp.zeros_like(t_wall)
+    else:  # a kink: the same Newton step to u = level, then no impact map
+        wall = pending & (hit.level == 0)
+        theta_kink = s * hit.level
+        t_kink = _clip(hit.tau - (theta_tau - theta_kink) / _safe(theta_dot_tau), ta, hit.t_hi)
+        t_impact = _where(wall, t_wall, t_kink)
+        theta_at = _where(wall, 0.0, theta_kink)
     theta_dot_tau = theta_dot_tau + accel(hit.tau, theta_tau) * (t_impact - hit.tau)
-    if one_sided:
+    rate_at = jnp.zeros_like(t_impact)  # the wall's rate at the impact [rad/s]
+    if moving_wall:
+        # restitution of the velocity relative to the wall (the paper's rule in its frame)
+        wall_at, rate_at, _ = record.wall(t_impact, t_mid)
+        theta_at = _where(wall, wall_at, theta_at)
+        theta_dot_plus, s_plus = rate_at - params.e * (theta_dot_tau - rate_at), s
+    elif one_sided:
         theta_dot_plus, s_plus = -params.e * theta_dot_tau, s
     else:
         theta_dot_plus, s_plus = params.e * theta_dot_tau, -s
+    if hit.level is not None:
+        theta_dot_plus = _where(wall, theta_dot_plus, theta_dot_tau)
+        s_plus = _where(wall, s_plus, s)
     # The rule reads the record at up to REST_HORIZON + 2 times (gathers, the costliest part
     # of a pass in a batch): only when some record of the batch impacts.
+    rebound = jnp.abs(theta_dot_plus - rate_at) if moving_wall else jnp.abs(theta_dot_plus)
     rests, hop = jax.lax.cond(
         eqxi.unvmap_any(pending),
-        lambda: _rests(t_impact, jnp.abs(theta_dot_plus), s_plus, line, record, params, one_sided),
+        lambda: _rests(t_impact, rebound, s_plus, line, record, params, one_sided, t_mid),
         lambda: (jnp.zeros_like(pending), jnp.zeros_like(t_impact)),
     )
-    rests = pending & rests
+    rests = wall & rests
 
     peak = _peak(
-        y.theta,
-        y.theta_dot,
+        theta_a,
+        theta_dot_a,
         theta_f,
         _where(pending, theta_dot_tau, theta_dot_f),
         _where(pending, t_impact - ta, h),
@@ -650,18 +814,25 @@ def _pass(
     peak = jnp.maximum(peak, _where(rests, hop, 0.0))
     # Not rocking (at rest and not lifting, or overturned): nothing moves. A crossing found
     # keeps the state (and the pivot it lifted onto) at ta for the impact pass.
+    theta_rest, theta_dot_rest = y.theta, y.theta_dot
+    theta_max = _where(pending | advance, jnp.maximum(y.theta_max, peak), y.theta_max)
+    if moving_wall:  # at rest (not overturned) the block rides on the wall to t1
+        riding = ~pending & (s == 0) & (y.overturned == 0)
+        theta_rest = _where(riding, wall_b, theta_rest)
+        theta_dot_rest = _where(riding, rate_b, theta_dot_rest)
+        theta_max = _where(riding, jnp.maximum(theta_max, jnp.abs(wall_b)), theta_max)
     y_new = _State(
-        theta=_where(pending, 0.0, _where(advance, theta_f, y.theta)),
+        theta=_where(pending, theta_at, _where(advance, theta_f, theta_rest)),
         theta_dot=_where(
             pending,
-            _where(rests, 0.0, theta_dot_plus),
-            _where(advance, theta_dot_f, y.theta_dot),
+            _where(rests, rate_at, theta_dot_plus),
+            _where(advance, theta_dot_f, theta_dot_rest),
         ),
         s=_where(pending, _where(rests, 0.0, s_plus), _where(rocking, s, y.s)),
         overturned=y.overturned,
-        n_impacts=y.n_impacts + pending,
-        t_last_impact=_where(pending, t_impact, y.t_last_impact),
-        theta_max=_where(pending | advance, jnp.maximum(y.theta_max, peak), y.theta_max),
+        n_impacts=y.n_impacts + wall,
+        t_last_impact=_where(wall, t_impact, y.t_last_impact),
+        theta_max=theta_max,
         n_unresolved=y.n_unresolved,
     )
     ta_new = _where(pending, t_impact, _where(crossed, ta, t1))
@@ -669,8 +840,28 @@ def _pass(
         pending=crossed,
         tau=_where(crossed, ta + x * h, hit.tau),
         t_hi=_where(crossed, ta + xb * h, hit.t_hi),
+        level=None if level is None else _where(crossed, level, hit.level),
     )
     return y_new, ta_new, hit_new
+
+
+def _kink_crossings(crossed, x, xb, u0, du0, u1, du1, exploring, law: _LawTerms):
+    """The first of the wall crossing (``crossed`` at ``x`` in [0, ``xb``]) and the law's kinks
+    ``u = u1`` (when ``Delta_1 > 0``) and ``u = u2`` (when ``Delta_2 > Delta_1``) crossed inside
+    the step (a change of sign of ``u - level`` between its ends; a kink grazed and left within
+    one step is not cut), as ``(crossed, x, xb, level)`` with ``level = 0`` for the wall."""
+    level = jnp.zeros_like(x)
+    for c, active in ((law.u1, law.u1 > 0), (law.u2, law.u2 > law.u1)):
+        sign = _where(u0 > c, 1.0, -1.0)  # so that the fit of sign (u - c) starts >= 0
+        w0, w1 = sign * (u0 - c), sign * (u1 - c)
+        hits = exploring & active & (w0 > 0) & (w1 < 0)
+        xk = _hermite_root(w0, sign * du0, w1, sign * du1, jnp.ones_like(x))
+        first = hits & (~crossed | (xk < x))
+        x = _where(first, xk, x)
+        xb = _where(first, 1.0, xb)
+        level = _where(first, c, level)
+        crossed = crossed | hits
+    return crossed, x, xb, level
 
 
 # --------------------------------------------------------------------------- the run
@@ -709,7 +900,7 @@ def _end_step(y: _State, ta, t1, params: _Params) -> _State:
         theta_max=y.theta_max,
         n_unresolved=y.n_unresolved + unresolved,
     )
-    goes_over = (y.s != 0) & (jnp.abs(y.theta) > params.eta) & (y.theta * y.theta_dot > 0)
+    goes_over = (y.s != 0) & (jnp.abs(y.theta) > params.theta_u) & (y.theta * y.theta_dot > 0)
     return eqx.tree_at(lambda z: z.overturned, y, _where(goes_over, 1.0, y.overturned))
 
 
@@ -773,10 +964,16 @@ def _run(
     out0 = jax.tree.map(lambda v: jnp.zeros(n_pad, v.dtype).at[0].set(v), _series(y0))
     zero = jnp.zeros((), jnp.int32)
     t0 = jnp.zeros_like(y0.theta)
-    hit0 = _Hit(pending=jnp.zeros((), bool), tau=t0, t_hi=t0)
+    hit0 = _Hit(
+        pending=jnp.zeros((), bool),
+        tau=t0,
+        t_hi=t0,
+        level=None if params.law is None else jnp.zeros_like(t0),
+    )
     carry0 = _Carry(y=y0, ta=t0, k=zero, passes=zero, hit=hit0, out=out0)
     ag_v0 = None if record.ag_v is None else record.ag_v[0]
-    carry0 = _entangle(carry0, (params, record.ag[0], ag_v0, record.dt))
+    wall0 = None if record.wall_theta is None else (record.wall_theta[0], record.wall_rate[0])
+    carry0 = _entangle(carry0, (params, record.ag[0], ag_v0, record.dt, wall0))
     carry = eqxi.while_loop(
         cond,
         body,
@@ -861,6 +1058,8 @@ def simulate_housner(
     max_impacts_per_step: int = DEFAULT_MAX_IMPACTS,
     adjoint: diffrax.AbstractAdjoint | None = None,
     throw: bool = True,
+    law: ThreeBranchLaw | None = None,
+    wall_motion: Any = None,
 ) -> Response:
     r"""Simulate Housner rocking with impacts (two-sided parapet or one-sided facade).
 
@@ -900,10 +1099,25 @@ def simulate_housner(
             unresolved step; if False report it in ``Response.status`` (for batches: a lane
             with an invalid input, e.g. ``e > 1`` or ``|theta0| >= eta``, gets
             ``STATUS_BAD_INPUT`` and NaN histories, and the other lanes run as alone).
+        law: A :class:`rockjax.ThreeBranchLaw` for the restoring moment (docs/three_branch.md):
+            $I_O \ddot\theta = -m g R \cos(\eta - u) [\Lambda(u) + a_g/g]$ on the pivot's side
+            ($u = s\theta$), $\Lambda$ the law's load multiplier at the rigid-equivalent
+            displacement $x = 1 - \tan(\eta - u)/\tan\eta$; the block overturns past the
+            law's zero-capacity rotation and lifts from rest at its ``lambda_uplift``. ``None``
+            (default): the rigid block, the same as ``ThreeBranchLaw.rigid(block)``.
+        wall_motion: One-sided only: the return wall moves relative to the base (a facade in a
+            building; docs/three_branch.md, "Moving return walls"). A ``(u_top, v_top)`` pair of
+            arrays [m], [m/s] at the record samples (the wall's displacement and velocity at
+            the block's height ``h``, relative to the base, positive toward the facade), or
+            anything ``rockjax.building.wall_top_motion`` takes (a ``ShearBuilding``, a
+            ``GroundMotion`` of the wall's absolute acceleration, or ``(height, GroundMotion)``
+            pairs). The wall rotates by ``theta_w = u_top / h``; impacts restitute the velocity
+            relative to it; at rest the block rides on it. Needs ``motion``.
 
     Returns:
         A :class:`rockjax.Response` at the record samples (or every ``dt``). ``energy`` is
-        $\tfrac12 I_O\dot\theta^2 + m g R(\cos(\eta-|\theta|) - \cos\eta)$ [J]. ``extras``:
+        $\tfrac12 I_O\dot\theta^2 + m g R(\cos(\eta-|\theta|) - \cos\eta)$ [J] (with a ``law``,
+        its potential: the work of its restoring moment). ``extras``:
         ``"n_impacts"`` (impacts up to each sample), ``"t_last_impact"`` [s] (time of the
         latest impact up to each sample, exact from the root-find; ``-inf`` before the first),
         ``"pivot"`` (``s``: +1, -1, 0 at rest), ``"n_unresolved"`` (steps with more impacts
@@ -940,7 +1154,24 @@ def simulate_housner(
     if duration is not None:
         check_positive("duration", duration, "s", "e.g. duration=10.0.", scalar=True)
     _check_theta0(theta0, theta_dot0, block, one_sided)
+    if law is not None and not isinstance(law, ThreeBranchLaw):
+        raise ValueError(
+            f"law must be a rockjax ThreeBranchLaw (or None for the rigid block); got a "
+            f"{type(law).__name__}. Build one with rj.ThreeBranchLaw(lambda_0=b/h, Delta_1=..., "
+            "Delta_2=..., Delta_u=...) (Deltas as fractions of b) or rj.fit_three_branch(...)."
+        )
     loop_kind, checkpoints = _loop_kind(adjoint)
+    if wall_motion is not None:
+        if not one_sided:
+            raise ValueError(
+                f"wall_motion needs mode='one_sided' (a facade against its return walls); got "
+                f"mode={mode!r}. Drop wall_motion for a parapet."
+            )
+        if motion is None:
+            raise ValueError(
+                "wall_motion needs the ground motion it is relative to: pass motion=GroundMotion "
+                "(free rocking against a moving wall is not supported)."
+            )
 
     if motion is None:
         if duration is None:
@@ -971,6 +1202,8 @@ def simulate_housner(
     if n_out < 2:
         raise ValueError(f"the run must span at least one step; got duration={duration} s.")
     p = concrete(block.p)
+    if p is not None and law is not None:
+        p = _law_frequency(p, concrete(block.eta), law)
     if dt_max is None:
         dt_max = dt_out if p is None else P_DT_TARGET / float(np.max(p))
     n_sub = max(1, math.ceil(dt_out / dt_max - 1e-9))
@@ -981,6 +1214,16 @@ def simulate_housner(
             f"{P_DT_LIMIT}); pass dt <= {P_DT_TARGET / float(np.max(p)):.4g} s or leave dt=None."
         )
 
+    wall = None
+    if wall_motion is not None:
+        if n_out > motion.n:
+            raise ValueError(
+                f"with wall_motion the run cannot outlast the record ({motion.n} samples, "
+                f"{(motion.n - 1) * motion.dt:g} s): the wall's motion after it is unknown; got "
+                f"duration={duration} s. Pad the record and the wall motion yourself."
+            )
+        wall = _wall_series(wall_motion, motion, block, n_out)
+
     default_e = e is None
     if default_e:
         e = e_isr(block.eta) if one_sided else e_housner(block.eta)
@@ -988,7 +1231,7 @@ def simulate_housner(
     # Compile once per bucket: with nothing traced the record is padded (its last sample
     # repeated, which the solver's evaluation beyond the end already holds) and its length
     # passed as data. Under the caller's jit/vmap/grad their transform fixes the shapes.
-    traced = is_traced(block, ag, ag_v, e, theta0, theta_dot0)
+    traced = is_traced(block, ag, ag_v, e, theta0, theta_dot0, law, wall)
     n_pad = n_out if traced else bucket_length(n_out)
     if not traced:
         notice_once(
@@ -1000,6 +1243,8 @@ def simulate_housner(
                 max_impacts_per_step,
                 loop_kind,
                 ag_v is None,
+                law is None,
+                wall is None,
             ),
             f"rockjax: compiling the Housner solver for records of <= {n_pad} samples "
             "(once per session)...",
@@ -1017,6 +1262,8 @@ def simulate_housner(
         jnp.asarray(theta_dot0, dtype=float),
         jnp.asarray(dt_out, dtype=float),
         jnp.asarray(n_out, dtype=jnp.int32),
+        None if law is None else jax.tree.map(lambda x: jnp.asarray(x, dtype=float), law),
+        None if wall is None else _pad_wall(wall, n_pad, dt_out),
         n_sub=n_sub,
         one_sided=one_sided,
         max_impacts=max_impacts_per_step,
@@ -1079,6 +1326,8 @@ def _simulate(
     theta_dot0,
     dt_out,
     n_out,
+    law=None,
+    wall=None,
     *,
     n_sub,
     one_sided,
@@ -1125,20 +1374,19 @@ def _simulate(
     ag = benign(ag, 0.0)
     ag_v = None if ag_v is None else benign(ag_v, 0.0)
 
-    params = _Params(
-        p2_over_g=p**2 / G,
-        sin_eta=jnp.sin(eta),
-        cos_eta=jnp.cos(eta),
-        tan_eta=jnp.tan(eta),
-        eta=eta,
-        e=e,
-    )
-    record = _Record(ag=ag, ag_v=ag_v, dt=dt_out)
+    params = _params(p, eta, e, law)
+    if wall is None:
+        record = _Record(ag=ag, ag_v=ag_v, dt=dt_out)
+    else:
+        record = _Record(ag=ag, ag_v=ag_v, dt=dt_out, wall_theta=wall[0], wall_rate=wall[1])
     moving = (theta0 != 0) | (theta_dot0 != 0)
     if one_sided:
         s0 = jnp.where(moving, 1.0, 0.0)
     else:
         s0 = jnp.where(theta0 != 0, jnp.sign(theta0), jnp.sign(theta_dot0))
+    if wall is not None:  # at rest against the wall: on it, with its rate
+        theta0 = jnp.where(moving, theta0, wall[0][0])
+        theta_dot0 = jnp.where(moving, theta_dot0, wall[1][0])
     zero = jnp.zeros_like(theta0)
     y0 = _State(
         theta=theta0,
@@ -1161,7 +1409,7 @@ def _simulate(
         loop_kind=loop_kind,
         checkpoints=checkpoints,
     )
-    too_coarse = p * dt_step > P_DT_LIMIT
+    too_coarse = (p if law is None else _law_frequency(p, eta, law, xp=jnp)) * dt_step > P_DT_LIMIT
     if throw:
         # Every output below is computed from the checked ys, so the checks cannot be
         # dropped as dead code whichever outputs the caller keeps.
@@ -1193,7 +1441,10 @@ def _simulate(
     # cos(eta - |theta|) - cos(eta) = cos(eta) (cos(theta) - 1) + sin(eta) |sin(theta)|.
     sin_th, cos_th = _sincos(theta)
     d = jnp.sign(theta) * 0.5 * block.b * (1.0 - cos_th) + block.h * sin_th
-    potential = jnp.cos(eta) * (cos_th - 1.0) + jnp.sin(eta) * jnp.abs(sin_th)
+    if law is None:
+        potential = jnp.cos(eta) * (cos_th - 1.0) + jnp.sin(eta) * jnp.abs(sin_th)
+    else:
+        potential = _law_potential(jnp.abs(theta), eta, params.law)
     energy = 0.5 * block.I_O * theta_dot**2 + block.m * G * block.R * potential
 
     def not_run(x):
@@ -1219,6 +1470,164 @@ def _simulate(
         },
     )
     return resp, fault
+
+
+def _params(p, eta, e, law) -> _Params:
+    """The run's constants; with a three-branch ``law``, its restoring terms (``_LawTerms``)."""
+    sin_eta, cos_eta, tan_eta = jnp.sin(eta), jnp.cos(eta), jnp.tan(eta)
+    p2_over_g = p**2 / G
+    w2_tiny = 2.0 * REST_HOP * eta * p2_over_g * G * sin_eta
+    if law is None:
+        return _Params(
+            p2_over_g=p2_over_g,
+            sin_eta=sin_eta,
+            cos_eta=cos_eta,
+            tan_eta=tan_eta,
+            eta=eta,
+            e=e,
+            theta_u=eta,
+            lam_up=tan_eta,
+            w2_tiny=w2_tiny,
+            law=None,
+        )
+    lam0, d1, d2, du = (
+        jnp.asarray(v, dtype=float) for v in (law.lambda_0, law.Delta_1, law.Delta_2, law.Delta_u)
+    )
+    lam_p = lam0 * (1.0 - d2 / du)
+
+    def rotation(x):  # u at the rigid-equivalent displacement x: tan(eta - u) = tan(eta)(1 - x)
+        return eta - jnp.arctan(tan_eta * (1.0 - x))
+
+    # Branch k: Lambda = alpha_k + beta_k tan(eta - u), from lambda(x) with x = 1 - tan(eta-u)/tan(eta).
+    has_first = d1 > 0
+    a1 = _where(has_first, lam_p / _where(has_first, d1, 1.0), lam_p)
+    b1 = _where(has_first, -a1 / tan_eta, 0.0)
+    a3 = lam0 * (1.0 - 1.0 / du)
+    b3 = lam0 / (du * tan_eta)
+    terms = _LawTerms(
+        u1=rotation(d1),
+        u2=rotation(d2),
+        alpha=jnp.stack([a1, lam_p, a3]),
+        beta=jnp.stack([b1, jnp.zeros_like(b1), b3]),
+    )
+    lam_up = _where(has_first, 0.0, lam_p)
+    k = p2_over_g * cos_eta
+    # Second rest clause: a hop of REST_HOP eta, from the threshold's restoring acceleration
+    # (k g lam_up) or, on a stiff first branch (lam_up = 0), from its frequency (k g lam_p / u1).
+    w2_hop = 2.0 * REST_HOP * eta * k * G * lam_up
+    w2_spring = (REST_HOP * eta) ** 2 * k * G * lam_p / _where(has_first, terms.u1, 1.0)
+    return _Params(
+        p2_over_g=p2_over_g,
+        sin_eta=sin_eta,
+        cos_eta=cos_eta,
+        tan_eta=tan_eta,
+        eta=eta,
+        e=e,
+        theta_u=rotation(du),
+        lam_up=lam_up,
+        w2_tiny=_where(has_first, w2_spring, w2_hop),
+        law=terms,
+    )
+
+
+def _law_frequency(p, eta, law, xp=np):
+    """The larger of ``p`` and the angular frequency of the law's stiff first branch [rad/s],
+    ``p sqrt(cos(eta) lambda_p / u1)`` (``u1`` its end rotation): the step-size rule's rate.
+    NumPy for concrete values (``None`` if the law is traced), ``xp=jnp`` inside the solve."""
+    vals = [law.lambda_0, law.Delta_1, law.Delta_2, law.Delta_u]
+    if xp is np:
+        vals = [concrete(v) for v in vals]
+        if eta is None or any(v is None for v in vals):
+            return None
+    lam0, d1, d2, du = vals
+    lam_p = lam0 * (1.0 - d2 / du)
+    u1 = eta - xp.arctan(xp.tan(eta) * (1.0 - d1))
+    stiff = xp.sqrt(xp.maximum(xp.cos(eta) * lam_p / xp.where(d1 > 0, u1, 1.0), 0.0))
+    return xp.maximum(p, xp.where(d1 > 0, p * stiff, p))
+
+
+def _law_potential(u, eta, terms: _LawTerms):
+    """``V(u) / (m g R)`` [-]: the work of the law's restoring moment from 0 to ``u >= 0``.
+
+    On branch ``k`` the moment over ``m g R`` is ``alpha_k cos(eta - u) + beta_k sin(eta - u)``,
+    whose integral is ``F_k(u) = -alpha_k sin(eta - u) + beta_k cos(eta - u)``.
+    """
+    bounds = ((0.0, terms.u1), (terms.u1, terms.u2), (terms.u2, jnp.inf))
+    total = jnp.zeros_like(u)
+    for k, (lo, hi) in enumerate(bounds):
+        lo = jnp.maximum(lo, 0.0)
+        hi = jnp.maximum(hi, lo)
+        uu = _clip(u, lo, hi)
+
+        def f(v, k=k):
+            return -terms.alpha[k] * jnp.sin(eta - v) + terms.beta[k] * jnp.cos(eta - v)
+
+        total = total + f(uu) - f(lo)
+    return total
+
+
+def _wall_series(wall_motion, motion: GroundMotion, block: Block, n_out: int):
+    """``(theta_w, theta_w')`` [rad, rad/s] at the run's ``n_out`` samples from ``wall_motion``
+    (see ``simulate_housner``); beyond the record the wall stays where it ended."""
+    if (
+        isinstance(wall_motion, tuple | list)
+        and len(wall_motion) == 2
+        and all(_is_series(w) for w in wall_motion)
+    ):
+        u, v = wall_motion
+        for name, w in (("u_top", u), ("v_top", v)):
+            if jnp.shape(w) != jnp.shape(motion.ag):
+                raise ValueError(
+                    f"wall_motion's {name} must have one value per record sample, shape "
+                    f"{jnp.shape(motion.ag)}; got shape {jnp.shape(w)}. Give the wall's "
+                    "displacement [m] and velocity [m/s] at t = k * motion.dt."
+                )
+            c = concrete(w)
+            if c is not None and not np.all(np.isfinite(c)):
+                raise ValueError(f"wall_motion's {name} must be finite (m, m/s); clean it first.")
+    else:
+        from .building import wall_top_motion  # optional layer: imported only when used
+
+        u, v = wall_top_motion(wall_motion, motion, block.h)
+    # NumPy when concrete: eager jnp ops on a new length would each compile once.
+    vals = [concrete(x) for x in (u, v, block.h)]
+    xp = jnp if any(x is None for x in vals) else np
+    if xp is np:
+        u, v, h = vals
+    else:
+        h = jnp.asarray(block.h, dtype=float)
+    u, v = xp.asarray(u, dtype=float) / h, xp.asarray(v, dtype=float) / h
+    n = u.shape[0]
+    if n >= n_out:
+        return u[:n_out], v[:n_out]
+    return xp.pad(u, (0, n_out - n), mode="edge"), xp.pad(v, (0, n_out - n))
+
+
+def _pad_wall(wall, n_pad: int, dt: float):
+    """The wall's samples padded to ``n_pad`` (concrete only; traced runs are not padded) as a
+    wall moving on at its last velocity: its cubic stays consistent (no acceleration spike)
+    where the rest rule looks past the end."""
+    theta, rate = wall
+    n = theta.shape[0]
+    if n_pad == n:
+        return jnp.asarray(theta), jnp.asarray(rate)
+    theta, rate = np.asarray(theta, dtype=float), np.asarray(rate, dtype=float)
+    extra = np.arange(1, n_pad - n + 1) * dt
+    theta = np.concatenate([theta, theta[-1] + rate[-1] * extra])
+    rate = np.concatenate([rate, np.full(n_pad - n, rate[-1])])
+    return jax.device_put(theta), jax.device_put(rate)
+
+
+def _is_series(w) -> bool:
+    """A 1-D array (or list) of numbers, as opposed to a ``(height, GroundMotion)`` pair."""
+    if isinstance(w, jax.Array | np.ndarray):
+        return w.ndim == 1
+    if isinstance(w, list | tuple):
+        try:
+            return np.asarray(w, dtype=float).ndim == 1
+        except (TypeError, ValueError):
+            return False
+    return False
 
 
 def _fit(a, n: int):

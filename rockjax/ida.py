@@ -1,7 +1,9 @@
 """Incremental dynamic analysis (IDA): one block under records x scale factors, batched.
 
 Every (record, scale) pair is one run of :func:`rockjax.simulate_dem` or
-:func:`rockjax.simulate_housner` with ``throw=False``. The pairs are flattened and run in
+:func:`rockjax.simulate_housner` (``model="three_branch"``: with a three-branch law) with
+``throw=False``. A facade in a building (``wall_motion=`` a :class:`rockjax.ShearBuilding`)
+has its return walls driven by the building's response to each scaled record. The pairs are flattened and run in
 chunks of ``chunk_size``: one ``jit(vmap(...))`` per chunk from a Python loop, which bounds the
 memory and lets a progress bar advance between chunks. The last chunk is padded (with
 zero-scale runs of the first record, dropped afterwards) to the same shape, so the batch
@@ -55,6 +57,7 @@ from . import _progress
 from ._checks import check_choice, check_nonnegative, check_positive, check_scalar, check_scales
 from ._types import ScalarLike
 from .block import Block
+from .building import ShearBuilding
 from .constants import G
 from .contact import Joint
 from .dem import simulate_dem, stable_dt
@@ -63,8 +66,9 @@ from .motion import GroundMotion
 from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
+from .three_branch import ThreeBranchLaw
 
-MODELS = ("dem", "housner")
+MODELS = ("dem", "housner", "three_branch")
 MODES = ("two_sided", "one_sided")
 
 DEFAULT_SCALES = np.linspace(0.05, 2.0, 40)
@@ -88,6 +92,8 @@ def ida(
     devices: Sequence[jax.Device] | None = None,
     im: str = "pga",
     joint: Joint | None = None,
+    law: ThreeBranchLaw | None = None,
+    wall_motion: ShearBuilding | None = None,
 ) -> xr.Dataset:
     """Incremental dynamic analysis of one block: every record at every scale factor.
 
@@ -96,8 +102,9 @@ def ida(
         records: Ground motions, with distinct names. They may differ in length (zero-padded to
             the longest, plus ``tail``) and in ``dt`` (each runs on its own).
         scales: Scale factors [-] applied to each record, strictly increasing, finite, >= 0.
-        model: ``"dem"`` (:func:`rockjax.simulate_dem`) or ``"housner"``
-            (:func:`rockjax.simulate_housner`).
+        model: ``"dem"`` (:func:`rockjax.simulate_dem`), ``"housner"``
+            (:func:`rockjax.simulate_housner`) or ``"three_branch"`` (``simulate_housner`` with
+            ``law``).
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
         beta: DEM only, required: stiffness-proportional Rayleigh coefficient [s], Eq. (1). The
             DEM step is the largest divisor of the record step not above
@@ -125,6 +132,11 @@ def ida(
         joint: DEM only: the contact joint (:class:`rockjax.Joint`); default ``rj.Joint()``,
             the converged joint; ``rj.Joint(n_sub=2)`` is the paper's corner contacts. Named
             in ``attrs["joint"]``.
+        law: ``model="three_branch"`` only, required: the three-branch moment-rotation law
+            (:class:`rockjax.ThreeBranchLaw`, e.g. ``rj.fit_three_branch(rj.pushover(block)).law``).
+        wall_motion: One-sided only: a :class:`rockjax.ShearBuilding` whose response to each
+            scaled record moves the facade's return walls (``wall_motion=`` of the
+            simulators); its periods are in ``attrs["building_periods"]``.
 
     Returns:
         An ``xarray.Dataset`` with dims ``("record", "scale")`` and variables
@@ -160,22 +172,60 @@ def ida(
         n_devices=len(devices),
         im=im,
         joint=joint,
+        law=law,
+        wall_motion=wall_motion,
     )
     grids = _run(plan, _placement(devices), progress)
     return _assemble(plan, grids)
 
 
-def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.0, joint=None):
+def run_config(
+    block: Block,
+    *,
+    model: str,
+    mode: str,
+    beta=None,
+    e=None,
+    gap=0.0,
+    joint=None,
+    law=None,
+    wall_motion=None,
+):
     """Checked run parameters of :func:`ida`: ``(block, config, e_used)``.
 
     ``block`` has Python-float fields; ``config`` holds ``model``, ``mode``, ``beta``, ``e``,
     ``gap`` (Python floats or None), ``joint`` (the DEM's :class:`rockjax.Joint`, None for
-    Housner) and ``dt_bound``, the solver step bound [s]; ``e_used`` is
-    the Housner restitution the runs use (None for the DEM). Raises ValueError as :func:`ida`.
+    Housner), ``law``, ``wall_motion`` and ``dt_bound``, the solver step bound [s]; ``e_used``
+    is the Housner restitution the runs use (None for the DEM). Raises ValueError as
+    :func:`ida`.
     """
     check_choice("model", model, MODELS)
     check_choice("mode", mode, MODES)
     block = _scalar_block(block)
+    if model == "three_branch":
+        if not isinstance(law, ThreeBranchLaw):
+            raise ValueError(
+                "model='three_branch' needs law=, a rockjax.ThreeBranchLaw, e.g. "
+                f"law=rj.fit_three_branch(rj.pushover(block)).law; got law={law!r}."
+            )
+    elif law is not None:
+        raise ValueError(
+            f"law (a three-branch moment-rotation law) needs model='three_branch'; got "
+            f"model={model!r}. Pass model='three_branch' or drop law."
+        )
+    if wall_motion is not None:
+        if not isinstance(wall_motion, ShearBuilding):
+            raise ValueError(
+                "ida's wall_motion must be a rockjax.ShearBuilding (its response to each scaled "
+                f"record drives the return walls); got {type(wall_motion).__name__}. For "
+                "recorded floor motions, call the simulators with wall_motion=... per record."
+            )
+        if mode != "one_sided":
+            raise ValueError(
+                f"wall_motion moves a facade's return walls and needs mode='one_sided'; got "
+                f"mode={mode!r}. For a parapet on a roof, run the IDA on the roof's motions "
+                "(bldg.floor_motions(record)[-1])."
+            )
     check_nonnegative("gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.")
     if model == "dem":
         if e is not None:
@@ -200,7 +250,7 @@ def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.
     else:
         if beta is not None:
             raise ValueError(
-                f"beta (DEM damping) is not a Housner parameter; model='housner' takes e. "
+                f"beta (DEM damping) is not a Housner parameter; model={model!r} takes e. "
                 f"Got beta={beta}."
             )
         if joint is not None:
@@ -224,7 +274,15 @@ def run_config(block: Block, *, model: str, mode: str, beta=None, e=None, gap=0.
         # the step bound simulate_housner picks for a concrete block
         dt_bound = P_DT_TARGET / float(block.p)
     config = dict(
-        model=model, mode=mode, beta=beta, e=e, gap=float(gap), joint=joint, dt_bound=dt_bound
+        model=model,
+        mode=mode,
+        beta=beta,
+        e=e,
+        gap=float(gap),
+        joint=joint,
+        law=law,
+        wall_motion=wall_motion,
+        dt_bound=dt_bound,
     )
     return block, config, e_used
 
@@ -338,10 +396,20 @@ def _plan(
     n_devices,
     im,
     joint=None,
+    law=None,
+    wall_motion=None,
 ) -> _Plan:
     """Check the inputs of :func:`ida` and cut its runs into chunks (no run yet)."""
     block, config, e_used = run_config(
-        block, model=model, mode=mode, beta=beta, e=e, gap=gap, joint=joint
+        block,
+        model=model,
+        mode=mode,
+        beta=beta,
+        e=e,
+        gap=gap,
+        joint=joint,
+        law=law,
+        wall_motion=wall_motion,
     )
     im_spec = parse_im(im)
     scales = check_scales(scales)
@@ -478,6 +546,13 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
     else:
         attrs["e"] = plan.e_used
         attrs["e_source"] = "given" if plan.e_given else "default (Eq. 2 or Eq. 5)"
+    if config["law"] is not None:
+        law = config["law"]
+        for field in ("lambda_0", "Delta_1", "Delta_2", "Delta_u"):
+            if hasattr(law, field):
+                attrs[f"law_{field}"] = float(getattr(law, field))
+    if config["wall_motion"] is not None:
+        attrs["building_periods"] = np.asarray(config["wall_motion"].periods, float)
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
 
 
@@ -591,7 +666,22 @@ def _group_records(records, tail: float, t_end: float | None = None):
 
 @eqx.filter_jit
 def _run_chunk(
-    block, ag, ag_v, rec_idx, scale, *, model, mode, beta, e, gap, joint, dt_rec, dt_bound
+    block,
+    ag,
+    ag_v,
+    rec_idx,
+    scale,
+    *,
+    model,
+    mode,
+    beta,
+    e,
+    gap,
+    joint,
+    law,
+    wall_motion,
+    dt_rec,
+    dt_bound,
 ):
     """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (vmapped)."""
 
@@ -599,11 +689,22 @@ def _run_chunk(
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
         if model == "dem":
             r = simulate_dem(
-                block, motion, beta=beta, mode=mode, gap=gap, dt=dt_bound, joint=joint, throw=False
+                block,
+                motion,
+                beta=beta,
+                mode=mode,
+                gap=gap,
+                dt=dt_bound,
+                joint=joint,
+                throw=False,
+                **({} if wall_motion is None else {"wall_motion": wall_motion}),
             )
             d_max = r.extras["d_max"]
         else:
-            r = simulate_housner(block, motion, e=e, mode=mode, dt=dt_bound, throw=False)
+            extra = {} if law is None else {"law": law}
+            if wall_motion is not None:
+                extra["wall_motion"] = wall_motion
+            r = simulate_housner(block, motion, e=e, mode=mode, dt=dt_bound, throw=False, **extra)
             d_max = block.top_displacement(r.theta_max)
         ok = r.status == STATUS_OK
         return {

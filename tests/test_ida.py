@@ -318,3 +318,95 @@ def test_dem_joint_reaches_every_run():
     assert not np.allclose(default["max_theta_over_eta"], ds["max_theta_over_eta"], rtol=1e-3)
     with pytest.raises(ValueError, match="joint .* is not a Housner parameter"):
         rj.ida(block, [rec], SCALES[:2], model="housner", joint=corners, progress=False)
+
+
+def _pulses():
+    return [
+        rj.GroundMotion.ricker(pga=3.0, period=0.5, name="r05"),
+        rj.GroundMotion.sine_cycle(pga=2.0, period=0.8, name="s08"),
+    ]
+
+
+def test_three_branch_with_the_rigid_law_is_the_housner_ida():
+    # The rigid law (Delta_1 = Delta_2 = 0, Delta_u = 1, lambda_0 = b/h) is plain Housner
+    # (docs/three_branch.md); the IDA must route the law to every run and change nothing else.
+    block = rj.Block(b=0.25, h=3.0)
+    scales = [0.4, 0.8, 1.6]
+    tb = rj.ida(
+        block,
+        _pulses(),
+        scales,
+        model="three_branch",
+        law=rj.ThreeBranchLaw.rigid(block),
+        progress=False,
+    )
+    hs = rj.ida(block, _pulses(), scales, model="housner", progress=False)
+    np.testing.assert_allclose(tb.max_theta_over_eta, hs.max_theta_over_eta, rtol=1e-9, atol=1e-12)
+    assert (tb.collapse.values == hs.collapse.values).all()
+    assert tb.attrs["model"] == "three_branch" and tb.attrs["law_Delta_u"] == 1.0
+
+
+def test_three_branch_law_changes_the_ida():
+    # a law with a flexible first branch and a shorter Delta_u lowers the capacity
+    block = rj.Block(b=0.25, h=3.0)
+    law = rj.ThreeBranchLaw(lambda_0=0.25 / 3.0, Delta_1=0.05, Delta_2=0.2, Delta_u=0.8)
+    scales = [0.4, 0.8, 1.6]
+    tb = rj.ida(block, _pulses(), scales, model="three_branch", law=law, progress=False)
+    hs = rj.ida(block, _pulses(), scales, model="housner", progress=False)
+    assert (tb.status.values == 0).all()
+    assert not np.allclose(tb.max_theta_over_eta, hs.max_theta_over_eta)
+
+
+def test_wall_motion_reaches_every_run():
+    # Each (record, scale) run of the IDA equals a single simulate_housner call with the same
+    # building moving the return walls under the scaled record.
+    block = rj.Block(b=0.25, h=3.0)
+    bldg = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.2, period=0.25, damping=0.05)
+    scales = [0.5, 1.2]
+    ds = rj.ida(
+        block,
+        _pulses(),
+        scales,
+        model="housner",
+        mode="one_sided",
+        wall_motion=bldg,
+        progress=False,
+    )
+    fixed = rj.ida(block, _pulses(), scales, model="housner", mode="one_sided", progress=False)
+    assert not np.allclose(ds.max_theta_over_eta, fixed.max_theta_over_eta)
+    np.testing.assert_allclose(ds.attrs["building_periods"], np.asarray(bldg.periods))
+    t_end = float(ds.attrs["t_end"])
+    for i, rec in enumerate(_pulses()):
+        n = int(round(t_end / rec.dt))
+        for j, s in enumerate(scales):
+            ag = np.zeros(n)
+            ag[: rec.ag.shape[0]] = s * np.asarray(rec.ag)
+            r = rj.simulate_housner(
+                block, rj.GroundMotion(ag=ag, dt=rec.dt), mode="one_sided", wall_motion=bldg
+            )
+            assert float(r.theta_max / r.eta) == pytest.approx(
+                float(ds.max_theta_over_eta[i, j]), rel=1e-9, abs=1e-12
+            )
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(model="three_branch"), "needs law"),
+        (
+            dict(model="housner", law=rj.ThreeBranchLaw.rigid(rj.Block(b=0.25, h=3.0))),
+            "three_branch",
+        ),
+        (
+            dict(
+                model="housner",
+                mode="two_sided",
+                wall_motion=rj.ShearBuilding.uniform(n_storeys=1, storey_height=3.0, period=0.2),
+            ),
+            "one_sided",
+        ),
+    ],
+)
+def test_law_and_wall_motion_errors(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        rj.ida(rj.Block(b=0.25, h=3.0), _pulses(), [1.0], progress=False, **kwargs)
