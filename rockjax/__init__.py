@@ -64,6 +64,8 @@ from .ida import collapse_intervals as collapse_intervals  # noqa: E402
 from .ida import ida as ida  # noqa: E402
 from .motion import GroundMotion as GroundMotion  # noqa: E402
 from .pulses import identify_pulse as identify_pulse  # noqa: E402
+from .pushover import Capacity as Capacity  # noqa: E402
+from .pushover import pushover as pushover  # noqa: E402
 from .records import read_at2 as read_at2  # noqa: E402
 from .records import read_csv as read_csv  # noqa: E402
 from .records import write_at2 as write_at2  # noqa: E402
@@ -86,6 +88,7 @@ __version__ = "0.1.0"
 __all__ = [
     "Block",
     "Calibration",
+    "Capacity",
     "Fragility",
     "GroundMotion",
     "Joint",
@@ -118,6 +121,7 @@ __all__ = [
     "omega_hcrit",
     "plot",
     "pulses",
+    "pushover",
     "read_at2",
     "read_csv",
     "records",

@@ -11,8 +11,10 @@ unit area, Mohr-Coulomb with zero tension and cohesion, stiffness-proportional R
 damping ``beta`` as a dashpot ``c = beta k`` on the closed joint (see :mod:`rockjax.contact`
 for the two damping conventions). A facade (``mode="one_sided"``) also has a rigid return
 wall at its -x face, a distance ``gap`` behind it, meeting the block's back face through the
-same joint. A few sub-contacts differ from the converged joint by 1e-2 in the restitution of
-a parapet and by a factor of two in a facade's rebound (docs/verification.md).
+same joint; the wall may move relative to the base (``simulate_dem(..., wall_motion=...)``: a
+straight contact line turning about the base, docs/pushover.md "Moving return walls"). A few
+sub-contacts differ from the converged joint by 1e-2 in the restitution of a parapet and by a
+factor of two in a facade's rebound (docs/verification.md).
 
 Integration: central differences with centred dashpots (the dashpot force uses the velocity
 at the step, the mean of the two half-step velocities, so the scheme is second-order accurate;
@@ -356,10 +358,11 @@ def _point_kinematics(state: DemState, u, v, c, s):
 # under vmap every operation is a single elementwise pass over the batch.
 
 
-def _contact_forces(params: DemParams, state: DemState, dt, c, s):
+def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
     """Resultant contact force and clockwise moment on the block (dashpots at the lagged
-    half-step velocity), the new shear springs, and the dashpot matrix ``C`` in the generalised
-    coordinates ``(x, y, theta)``: its entries ``(Cxx, Cyy, Cxt, Cyt, Ctt)`` (``Cxy = 0``)."""
+    half-step velocity), the new shear springs, the dashpot matrix ``C`` in the generalised
+    coordinates ``(x, y, theta)``: its entries ``(Cxx, Cyy, Cxt, Cyt, Ctt)`` (``Cxy = 0``), and
+    the power of the return wall [W] (see :func:`_wall_line`; ``wall`` = ``(u_top, v_top)``)."""
     fx = fy = mom = 0.0
     cxx = cyy = cxt = cyt = ctt = 0.0
     fn_base, fs_base = [], []
@@ -385,17 +388,21 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s):
         cyy, cyt, ctt = cyy + c_n, cyt - c_n * rx, ctt + c_n * rx * rx
         cxx, cxt, ctt = cxx + c_s, cxt + c_s * ry, ctt + c_s * ry * ry
     fs_wall = []
-    wall_x = -0.5 * params.b - params.gap
+    power = 0.0
     for j in range(len(state.fs_wall)):
         u, v = params.u_wall[j], params.v_wall[j]
-        rx, ry, x_pt, _, xd_pt, yd_pt = _point_kinematics(state, u, v, c, s)
+        rx, ry, x_pt, y_pt, xd_pt, yd_pt = _point_kinematics(state, u, v, c, s)
+        delta, delta_dot, slope, wall_v = _wall_line(params, wall, x_pt, y_pt, xd_pt, yd_pt)
         fn, fn_el, frac = normal_force(
-            wall_x - x_pt, -xd_pt, params.kn_wall[j], params.beta, params.dashpot, dt_onset
+            delta, delta_dot, params.kn_wall[j], params.beta, params.dashpot, dt_onset
         )
         ft, fs = shear_force(
             state.fs_wall[j], yd_pt, dt, params.ks_wall[j], fn_el, params.tan_phi, params.beta, frac
         )
         fx, fy, mom = fx + fn, fy + ft, mom + (ry * fn - rx * ft)
+        if wall is not None:  # the inclined wall's normal (1, -slope): a vertical component
+            fy, mom = fy - slope * fn, mom + rx * slope * fn
+            power = power + fn * wall_v
         fs_wall.append(fs)
         c_n = frac * params.beta * params.kn_wall[j]
         if clipped:
@@ -404,7 +411,26 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s):
         cxx, cxt, ctt = cxx + c_n, cxt + c_n * ry, ctt + c_n * ry * ry
         cyy, cyt, ctt = cyy + c_s, cyt - c_s * rx, ctt + c_s * rx * rx
     damping = (cxx, cyy, cxt, cyt, ctt)
-    return fx, fy, mom, tuple(fn_base), tuple(fs_base), tuple(fs_wall), damping
+    return fx, fy, mom, tuple(fn_base), tuple(fs_base), tuple(fs_wall), damping, power
+
+
+def _wall_line(params: DemParams, wall, x_pt, y_pt, xd_pt, yd_pt):
+    """Penetration [m] and its rate [m/s] of the back-face point ``(x_pt, y_pt)`` into the
+    return wall, the wall's slope ``u_top / h`` [-] and its velocity at the point [m/s].
+
+    The wall's contact line is ``x = -b/2 - gap + u_top y / h`` (``y`` above the base), moving
+    with ``v_top y / h`` (docs/pushover.md, "Moving return walls"; ``wall = None``: fixed).
+    The penetration is linear along a straight back face, so the face law stays exact; its rate
+    is the exact time derivative, i.e. the normal velocity of the block point relative to the
+    wall (normal ``(1, -u_top / h)`` to first order in the wall's rotation).
+    """
+    wall_x = -0.5 * params.b - params.gap
+    if wall is None:
+        return wall_x - x_pt, -xd_pt, 0.0, 0.0
+    u_top, v_top = wall
+    slope, rate = u_top / params.h, v_top / params.h
+    delta = wall_x + slope * y_pt - x_pt
+    return delta, -xd_pt + rate * y_pt + slope * yd_pt, slope, rate * y_pt
 
 
 # ----------------------------------------------------------------------------- face law
@@ -455,7 +481,7 @@ def _insert_cut(cuts, z):
     return [cuts[0], *out, z, cuts[-1]]
 
 
-def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist):
+def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion=None):
     """Integrated contact of one face on a continuous Winkler joint (normal and shear
     stiffness per unit length ``kn_line``, ``ks_line``).
 
@@ -475,16 +501,20 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist):
     closed part moves, the spring keeps the share given by :data:`FACE_SHEAR_RELEASE`
     (docs/theory.md, "Integrated face contact").
 
-    Returns ``(Fx, Fy, moment, fn, hist_new, (cxx, cyy, cxt, cyt, ctt))``.
+    A moving wall (``motion = (u_top, v_top)``, see :func:`_wall_line`) keeps the penetration
+    linear along the back face; its normal ``(1, -u_top / h)`` adds the vertical component
+    ``-fn u_top / h``.
+
+    Returns ``(Fx, Fy, moment, fn, hist_new, (cxx, cyy, cxt, cyt, ctt), wall_power)``.
     """
     half_b, half_h = 0.5 * params.b, 0.5 * params.h
     if wall:
         lo, hi = -half_h, half_h
-        wall_x = -half_b - params.gap
 
         def kin(t):
-            rx, ry, x_pt, _, xd, yd = _point_kinematics(state, -half_b, t, c, s)
-            return rx, ry, wall_x - x_pt, -xd, yd
+            rx, ry, x_pt, y_pt, xd, yd = _point_kinematics(state, -half_b, t, c, s)
+            delta, delta_dot, _, _ = _wall_line(params, motion, x_pt, y_pt, xd, yd)
+            return rx, ry, delta, delta_dot, yd
     else:
         lo, hi = -half_b, half_b
 
@@ -517,7 +547,7 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist):
         # linear in t, changes sign; the pieces either side are then smooth
         q_lo, q_hi = d_lo + beta * ends[0][3], d_hi + beta * ends[1][3]
         cuts = _insert_cut(cuts, _crossing(lo, hi, q_lo, q_hi))
-    fn = fn_el = mom_n = 0.0
+    fn = fn_el = mom_n = f_rx = 0.0
     n0 = n1 = n2 = 0.0  # integrals of frac, frac * arm_n, frac * arm_n^2
     s0 = s1 = s2 = 0.0  # integrals of frac, frac * arm_s, frac * arm_s^2
     v0 = v1 = 0.0  # integrals of frac * slip, frac * slip * arm_s
@@ -530,6 +560,8 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist):
             arm_n, arm_s = (ry, -rx) if wall else (-rx, ry)
             wf = half * frac
             fn, fn_el, mom_n = fn + half * f, fn_el + half * f_el, mom_n + half * f * arm_n
+            if motion is not None:
+                f_rx = f_rx + half * f * rx
             # a clipped dashpot acts only where the total force is compressive
             wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
             n0, n1, n2 = n0 + wn, n1 + wn * arm_n, n2 + wn * arm_n * arm_n
@@ -563,32 +595,57 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist):
     cn, cs = beta * kn, beta * ks
     n = (cn * n0, cn * n1, cn * n2)
     t_ = (cs * s0, cs * s1, cs * s2)
+    power = 0.0
     if wall:  # normal along x, shear along y
         fx, fy = fn, ft
         (cxx, cxt, ctt_x), (cyy, cyt, ctt_y) = n, t_
+        if motion is not None:
+            # the wall's normal (1, -slope); its velocity rate * y_pt, y_pt = y + ry, and
+            # mom_n is the integral of f ry here
+            slope, rate = motion[0] / params.h, motion[1] / params.h
+            fy, mom = fy - slope * fn, mom + slope * f_rx
+            power = rate * (state.y * fn + mom_n)
     else:
         fx, fy = ft, fn
         (cxx, cxt, ctt_x), (cyy, cyt, ctt_y) = t_, n
     # the generalised dashpot matrix uses J_x = (1, 0, ry), J_y = (0, 1, -rx): the arms above
     # are ry for x-forces and -rx for y-forces, so C_xt = sum c ry and C_yt = sum c (-rx)
-    return fx, fy, mom, fn, (f_s,), (cxx, cyy, cxt, cyt, ctt_x + ctt_y)
+    return fx, fy, mom, fn, (f_s,), (cxx, cyy, cxt, cyt, ctt_x + ctt_y), power
 
 
-def _face_forces(params: DemParams, state: DemState, dt, c, s):
+def _face_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
     """:func:`_contact_forces` for the integrated face law."""
-    fx, fy, mom, fn, hb, damp = _face(params, state, dt, c, s, False, state.fs_base)
+    fx, fy, mom, fn, hb, damp, _ = _face(params, state, dt, c, s, False, state.fs_base)
     fs_wall = ()
+    power = 0.0
     if len(state.fs_wall):
-        wx, wy, wm, _, hw, dw = _face(params, state, dt, c, s, True, state.fs_wall)
+        wx, wy, wm, _, hw, dw, power = _face(params, state, dt, c, s, True, state.fs_wall, wall)
         fx, fy, mom = fx + wx, fy + wy, mom + wm
         damp = tuple(a + b_ for a, b_ in zip(damp, dw))
         fs_wall = hw
-    return fx, fy, mom, (fn,), hb, fs_wall, damp
+    return fx, fy, mom, (fn,), hb, fs_wall, damp, power
 
 
-def _step(params: DemParams, state: DemState, ag, ag_v, dt):
-    """One central-difference step with centred dashpots; also returns the accelerations at
-    step n.
+def step(params: DemParams, state: DemState, ag, ag_v, dt, *, wall=None, load=None):
+    """One central-difference step with centred dashpots (un-jitted: the drivers scan it).
+
+    Args:
+        params: From :func:`dem_params`.
+        state: The state at step n (velocities at n - 1/2).
+        ag: Horizontal ground acceleration at step n [m/s^2].
+        ag_v: Vertical ground acceleration at step n [m/s^2].
+        dt: Time step [s].
+        wall: ``(u_top, v_top)`` [m, m/s] of a moving return wall at step n (one-sided only;
+            the wall's displacement and velocity at the block's height relative to the base),
+            or None for a fixed wall.
+        load: ``(Fx, Fy, M)`` [N, N, N m]: external force on the centroid and clockwise
+            moment (the sign of ``theta``) at step n, e.g. a control spring (computed by the
+            caller from ``state``), or None.
+
+    Returns:
+        ``(new_state, (ax, ay, aw, fn, d, wall_power))``: the state at step n + 1, the
+        accelerations at step n [m/s^2, rad/s^2], the base normal forces [N], the top
+        displacement at step n [m] and the power of the return wall on the block [W].
 
     The dashpot force uses the velocity at step n, ``v_n = (v_{n-1/2} + v_{n+1/2}) / 2``
     (the textbook central-difference method, second-order accurate): with ``F`` the force
@@ -601,7 +658,10 @@ def _step(params: DemParams, state: DemState, ag, ag_v, dt):
     """
     c, s = state.c, state.s
     forces = _face_forces if params.face else _contact_forces
-    fx, fy, mom, fn, fs_base, fs_wall, (cxx, cyy, cxt, cyt, ctt) = forces(params, state, dt, c, s)
+    fx, fy, mom, fn, fs_base, fs_wall, damping, power = forces(params, state, dt, c, s, wall)
+    cxx, cyy, cxt, cyt, ctt = damping
+    if load is not None:
+        fx, fy, mom = fx + load[0], fy + load[1], mom + load[2]
     h = 0.5 * dt
     gx = fx - params.m * ag
     gy = fy - params.m * (G + ag_v)
@@ -635,28 +695,30 @@ def _step(params: DemParams, state: DemState, ag, ag_v, dt):
         fs_base=fs_base,
         fs_wall=fs_wall,
     )
-    return new, (ax, ay, aw, fn, d)
+    return new, (ax, ay, aw, fn, d, power)
 
 
-def _energy(params: DemParams, state: DemState, vx, vy, w, c, s):
-    """Kinetic + gravitational (from y = h/2) + contact spring energy [J]."""
+def _energy(params: DemParams, state: DemState, vx, vy, w, c, s, u_top=None):
+    """Kinetic + gravitational (from y = h/2) + contact spring energy [J] (``u_top`` [m]: the
+    moving wall's displacement, or None)."""
     e = 0.5 * params.m * (vx**2 + vy**2) + 0.5 * params.I_c * w**2
     e = e + params.m * G * (state.y - 0.5 * params.h)
     if params.face:
-        return e + _face_energy(params, state, c, s)
+        return e + _face_energy(params, state, c, s, u_top)
     for i in range(len(state.fs_base)):
         _, _, _, y_pt, _, _ = _point_kinematics(state, params.u_base[i], params.v_base[i], c, s)
         delta = jnp.maximum(-y_pt, 0.0)
         e = e + 0.5 * params.kn_base[i] * delta**2 + 0.5 * state.fs_base[i] ** 2 / params.ks_base[i]
     wall_x = -0.5 * params.b - params.gap
     for j in range(len(state.fs_wall)):
-        _, _, x_pt, _, _, _ = _point_kinematics(state, params.u_wall[j], params.v_wall[j], c, s)
-        delta = jnp.maximum(wall_x - x_pt, 0.0)
+        _, _, x_pt, y_pt, _, _ = _point_kinematics(state, params.u_wall[j], params.v_wall[j], c, s)
+        slope = 0.0 if u_top is None else u_top / params.h
+        delta = jnp.maximum(wall_x + slope * y_pt - x_pt, 0.0)
         e = e + 0.5 * params.kn_wall[j] * delta**2 + 0.5 * state.fs_wall[j] ** 2 / params.ks_wall[j]
     return e
 
 
-def _face_energy(params: DemParams, state: DemState, c, s):
+def _face_energy(params: DemParams, state: DemState, c, s, u_top=None):
     """Spring energy of the integrated faces [J]: ``kn_line delta^2 / 2`` integrated exactly
     over the closed interval, and ``f_s^2 / (2 ks_line length)`` of each face's shear spring."""
     e = 0.0
@@ -665,9 +727,11 @@ def _face_energy(params: DemParams, state: DemState, c, s):
         if wall:
             lo, hi = -0.5 * params.h, 0.5 * params.h
             wall_x = -0.5 * params.b - params.gap
+            slope = 0.0 if u_top is None else u_top / params.h
 
             def pen(t):
-                return wall_x - _point_kinematics(state, -0.5 * params.b, t, c, s)[2]
+                _, _, x_pt, y_pt, _, _ = _point_kinematics(state, -0.5 * params.b, t, c, s)
+                return wall_x + slope * y_pt - x_pt
         else:
             lo, hi = -0.5 * params.b, 0.5 * params.b
 
@@ -750,6 +814,7 @@ def run_prepared(
     n_in: int,
     save: tuple,
     throw: bool,
+    wall=None,
 ) -> Response:
     """The DEM run from a prepared state: what :func:`rockjax.simulate_dem` calls once it has
     checked its inputs (use it for set-ups it does not offer, e.g. a block dropped flat).
@@ -758,10 +823,23 @@ def run_prepared(
     acceleration ``ag``, ``ag_v`` [m/s^2] linear in between), assembled into a
     :class:`Response` all inside one jit. Nothing is checked here: ``params`` from
     :func:`dem_params`, ``state0`` e.g. from :func:`initial_state`, ``dt = dt_out / n_in``.
+
+    ``wall``: ``(u_top, v_top)`` [m, m/s], arrays shaped like ``ag``: the return wall's
+    displacement and velocity at the block's height ``h`` relative to the base, at the record
+    samples, linear in between (a one-sided ``params`` only; None: a fixed wall). With
+    ``"energy"`` in ``save`` the work done by the wall on the block [J] since ``t = 0`` is
+    returned as ``extras["work_wall"]``.
     """
     n_base, n_wall = len(state0.fs_base), len(state0.fs_wall)
     ag_next = jnp.concatenate([ag[1:], ag[-1:]])
     agv_next = jnp.concatenate([ag_v[1:], ag_v[-1:]])
+    moving = wall is not None
+    work = moving and "energy" in save
+    xs = (ag, ag_next, ag_v, agv_next)
+    if moving:
+        u_w, v_w = (jnp.asarray(a, float) for a in wall)
+        xs = xs + (u_w, jnp.concatenate([u_w[1:], u_w[-1:]]))
+        xs = xs + (v_w, jnp.concatenate([v_w[1:], v_w[-1:]]))
     unstable = dt > critical_dt(params) * (1.0 + 1e-9)
     # traced inputs cannot be checked in Python: a lane with an impossible one is not run
     positive = [params.m, params.I_c, params.b, params.h, params.kn_line, params.tan_phi]
@@ -773,32 +851,51 @@ def run_prepared(
         & jnp.all(jnp.isfinite(ag))
         & jnp.all(jnp.isfinite(ag_v))
     )
+    if moving:
+        bad_input = bad_input | ~(jnp.all(jnp.isfinite(u_w)) & jnp.all(jnp.isfinite(v_w)))
 
     def outer(carry, xs):
-        z, overturned, status = carry
-        a0, a1, v0, v1 = xs
+        z, overturned, status = carry[:3]
+        a0, a1, v0, v1 = xs[:4]
+        w0 = (xs[4], xs[6]) if moving else None
         state = _unpack(z, n_base, n_wall)
-        new, (ax, ay, aw, fn, d) = _step(params, state, a0, v0, dt)
+        new, (ax, ay, aw, fn, d, power) = step(params, state, a0, v0, dt, wall=w0)
         # velocities at the sample time, centred from the half steps
         vx, vy, w = state.vx + 0.5 * dt * ax, state.vy + 0.5 * dt * ay, state.w + 0.5 * dt * aw
         out = {"theta": state.theta, "theta_dot": w, "d": d, "x": state.x, "y": state.y}
         if "energy" in save:
-            out["energy"] = _energy(params, state, vx, vy, w, state.c, state.s)
+            u_top = w0[0] if moving else None
+            out["energy"] = _energy(params, state, vx, vy, w, state.c, state.s, u_top)
         if "forces" in save:
             out["normal_forces"] = jnp.stack(fn, axis=-1)
+        if work:
+            # the wall's work: the sum of power x dt over the steps (their forces act on the
+            # centred velocities), half a step past the sample; the constant half step of the
+            # first sample is taken off at the end
+            out["work_wall"] = carry[3] + 0.5 * dt * power
+            work_new = carry[3] + dt * power
         if n_in > 1:
             # the ground motion is linear between samples; the substep index travels in the
             # carry (not as scanned xs). The state travels as its fields, not packed: XLA:CPU
             # computes a packed vector as one fusion per element, each recomputing the contact
             # forces (~540 instead of ~195 arithmetic ops per step; docs/benchmarks.md).
             da, dv = (a1 - a0) / n_in, (v1 - v0) / n_in
+            if moving:
+                du, dw_ = (xs[5] - xs[4]) / n_in, (xs[7] - xs[6]) / n_in
 
             def inner(carry, _):
-                st, j = carry
-                st, _ = _step(params, st, a0 + j * da, v0 + j * dv, dt)
+                st, j = carry[:2]
+                wj = (xs[4] + j * du, xs[6] + j * dw_) if moving else None
+                st, aux = step(params, st, a0 + j * da, v0 + j * dv, dt, wall=wj)
+                if work:
+                    return (st, j + 1.0, carry[2] + dt * aux[-1]), None
                 return (st, j + 1.0), None
 
-            (new, _), _ = jax.lax.scan(inner, (new, jnp.ones_like(a0)), length=n_in - 1)
+            init = (new, jnp.ones_like(a0)) + ((work_new,) if work else ())
+            done, _ = jax.lax.scan(inner, init, length=n_in - 1)
+            new = done[0]
+            if work:
+                work_new = done[2]
         z_new = _pack(new)
         theta, w_new = z_new[_SCALARS.index("theta")], z_new[_SCALARS.index("w")]
         # overturning: past eta and moving outward; the block is frozen from then on
@@ -809,13 +906,18 @@ def run_prepared(
             status,
             jnp.where(unstable, STATUS_UNSTABLE, jnp.where(bad, STATUS_NONFINITE, STATUS_OK)),
         )
-        z_new = jnp.where(overturned | (status != STATUS_OK), z, z_new)
+        frozen = overturned | (status != STATUS_OK)
+        z_new = jnp.where(frozen, z, z_new)
+        if work:
+            return (z_new, over, status, jnp.where(frozen, carry[3], work_new)), out
         return (z_new, over, status), out
 
     outer = jax.checkpoint(outer, prevent_cse=False)
     status0 = jnp.where(bad_input, STATUS_BAD_INPUT, STATUS_OK)
     carry0 = (_pack(state0), jnp.zeros((), bool), status0)
-    (z, overturned, status), out = jax.lax.scan(outer, carry0, (ag, ag_next, ag_v, agv_next))
+    if work:
+        carry0 = carry0 + (jnp.zeros(()),)
+    (z, overturned, status, *_), out = jax.lax.scan(outer, carry0, xs)
     if throw:
         for code in (STATUS_BAD_INPUT, STATUS_UNSTABLE, STATUS_NONFINITE):
             msg = (
@@ -827,6 +929,8 @@ def run_prepared(
     extras = {"x": out["x"], "y": out["y"], "d_max": final.d_max, "dt": dt}
     if "normal_forces" in out:
         extras["normal_forces"] = out["normal_forces"]
+    if work:
+        extras["work_wall"] = out["work_wall"] - out["work_wall"][0]
     return Response(
         t=jnp.arange(ag.shape[0]) * dt_out,
         theta=out["theta"],
@@ -859,6 +963,7 @@ def simulate_dem(
     save: tuple[str, ...] = (),
     beta_max=None,
     throw: bool = True,
+    wall_motion=None,
 ) -> Response:
     """Simulate the DEM rigid block under a ground motion and/or a free release.
 
@@ -888,10 +993,23 @@ def simulate_dem(
         save: Extra outputs: ``"energy"`` (total energy [J]), ``"forces"`` (base normal forces [N]).
         beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
         throw: Raise (also inside ``jit``) if the run fails; if False, report ``Response.status``.
+        wall_motion: A return wall that moves relative to the base (``mode="one_sided"`` only;
+            None: fixed). Its contact line is ``x = -b/2 - gap + u_top(t) y / h`` (``y`` above
+            the base), i.e. the wall rotates by ``u_top / h`` about the base (docs/pushover.md,
+            "Moving return walls"). Either a pair ``(u_top, v_top)`` of arrays [m], [m/s] with
+            one value per record sample (the wall's displacement and velocity at height ``h``
+            relative to the base, ``u_top > 0`` toward the facade; traceable, so ``jit``/``vmap``
+            over wall histories work), or what ``rockjax.building.wall_top_motion`` accepts (a
+            ``ShearBuilding``, the wall's absolute acceleration as a ``GroundMotion``, or
+            ``(height, GroundMotion)`` pairs). Linear between samples; past the record's end
+            (a longer ``duration``) the wall holds its last position.
 
     Returns:
         A :class:`rockjax.Response` sampled at the record samples (or every ``save_dt``);
-        ``extras`` holds ``x``, ``y`` (centroid [m]), ``d_max`` [m], ``dt`` [s] and the requested outputs.
+        ``extras`` holds ``x``, ``y`` (centroid [m]), ``d_max`` [m], ``dt`` [s] and the requested
+        outputs; for a facade with ``"energy"`` saved also ``work_wall`` [J], the work done on the
+        block by the return wall since ``t = 0`` (zero for a fixed wall), so that
+        ``energy - work_wall`` is conserved without damping, slip or ground motion.
 
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
@@ -911,7 +1029,16 @@ def simulate_dem(
         phi_deg=phi_deg,
     )
     _check_theta0(theta0, block, mode)
+    if wall_motion is not None and mode != "one_sided":
+        raise ValueError(
+            f"wall_motion (a moving return wall) needs mode='one_sided' (a facade against its "
+            f"return wall); got mode={mode!r}. Pass mode='one_sided', or drop wall_motion."
+        )
+    n_record = None if motion is None else np.shape(motion.ag)[0]
     ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
+    wall = None
+    if mode == "one_sided":
+        wall = _wall_arrays(wall_motion, motion, block, ag, dt_out, n_record)
     accuracy = _check_accuracy(accuracy, mode, joint)
     limit, dt_default = _concrete_steps(params, block, beta_max, joint, mode, dt, accuracy)
     if dt is None:
@@ -934,8 +1061,47 @@ def simulate_dem(
     state0 = initial_state(params, theta0)
     # step as an array: traced, so a new step (a new beta) does not recompile
     return run_prepared(
-        params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, tuple(save), throw
+        params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, tuple(save), throw, wall
     )
+
+
+def _wall_arrays(wall_motion, motion, block, ag, dt_out, n_record):
+    """``(u_top, v_top)`` [m, m/s] at the run's samples (zeros for a fixed wall: one compiled
+    facade path whether or not the wall moves)."""
+    n = ag.shape[0]
+    xp = np if concrete(ag) is not None else jnp
+    if wall_motion is None:
+        return xp.zeros(n), xp.zeros(n)
+    if _is_array_pair(wall_motion):
+        u, v = wall_motion
+    else:
+        from .building import wall_top_motion  # lazily: building imports the simulators
+
+        gm = motion if motion is not None else GroundMotion.zeros(n * dt_out, dt_out)
+        u, v = wall_top_motion(wall_motion, gm, block.h)
+    n_rec = n if n_record is None else n_record
+    for name, a in (("u_top", u), ("v_top", v)):
+        if np.shape(a) != (n_rec,):
+            raise ValueError(
+                f"wall_motion: {name} must have one value per record sample, shape ({n_rec},); "
+                f"got shape {np.shape(a)}. Sample the wall at the record's dt."
+            )
+        a_c = concrete(a)
+        if a_c is not None and not np.all(np.isfinite(a_c)):
+            raise ValueError(f"wall_motion: {name} [m or m/s] contains non-finite values.")
+    xp = np if concrete(u) is not None and concrete(v) is not None and xp is np else jnp
+    u, v = xp.asarray(u, float), xp.asarray(v, float)
+    if n != n_rec:  # a longer duration: the wall holds its last position; shorter: truncated
+        pad = max(0, n - n_rec)
+        u = xp.pad(u, (0, pad), mode="edge")[:n]
+        v = xp.pad(v, (0, pad))[:n]
+    return u, v
+
+
+def _is_array_pair(x):
+    if not (isinstance(x, tuple) and len(x) == 2):
+        return False
+    return all(isinstance(a, (np.ndarray, jax.Array)) for a in x)
 
 
 def _fmt(x):

@@ -1,0 +1,280 @@
+"""Quasi-static DEM pushover: the capacity curve of a block (paper Section 4, Fig. 9).
+
+The block of :mod:`rockjax.dem` (the same joint, contact law and step, :func:`rockjax.dem.step`)
+is pulled by a horizontal control spring attached to its centroid, whose far end moves at a
+slow, constant rate (displacement control). A horizontal force on the centroid of a rigid body
+is a uniform horizontal acceleration, so the control force ``F`` gives the load multiplier
+``lambda = (F - m x_ddot) / (m g)`` (the horizontal acceleration in g that the supports
+resist: the control force less the block's small inertia), and displacement control traces
+the softening branch after the peak down to ``d/b ~ 1``. An overburden ``N`` [N per m of
+length] acts vertically at the top centre. The pushover reuses the DEM step with its ``load``
+hook in its own scan. Derivations, the loading-rate study and the paper's four walls:
+docs/pushover.md.
+"""
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from ._checks import check_choice, check_nonnegative, check_positive
+from .block import Block
+from .constants import G
+from .contact import Joint
+from .dem import MODES, dem_params, initial_state, stable_dt, step
+from .relations import beta_dejong
+
+CONTROL_STIFFNESS = 50.0
+"""Control spring stiffness in units of ``m g / h`` [-]. The rigid block's softening branch
+has the stiffness ``-2 m g / h`` against the centroid's displacement, so 50 keeps the
+controlled system stable (positive total stiffness) with a 25-fold margin, and the spring's
+frequency ``sqrt(50 g / h)`` stays far below the contact modes the step resolves."""
+
+CONTROL_DAMPING = 1.0
+"""Damping ratio [-] of the control spring's dashpot (critical for the block's mass): it kills
+the oscillation of the block on the control spring, which ``beta`` (on the contacts only)
+does not reach. In steady pulling the block moves with the control point and the dashpot
+carries no force."""
+
+PULL_TIME = 80.0
+"""Default duration of the pull in units of ``1 / p`` [-] (``p`` Housner's frequency
+parameter): halving the rate moves the paper's walls' curves by < 0.13 % of ``lambda_0``
+(docs/pushover.md, "Pushover")."""
+
+RAMP_FRACTION = 0.25
+"""Fraction of the pull over which the control point's velocity ramps smoothly from 0 to the
+rate (a sudden start would shake the block)."""
+
+SETTLE_FRACTION = 0.05
+"""Fraction of the pull's duration added before it, over which the overburden is applied
+(linearly) while the control point holds still."""
+
+
+class Capacity(eqx.Module):
+    """A pushover (capacity) curve.
+
+    Attributes:
+        load_multiplier: ``lambda`` [-], the horizontal acceleration in g: the supports'
+            horizontal reaction over the block's weight ``m g`` (the control force less the
+            block's inertia), per output sample.
+        d_over_b: Horizontal displacement of the top centre relative to the base over ``b``
+            [-].
+        theta: Rotation [rad] (positive outward, about the +x toe).
+        lambda_rigid: The rigid-block limit at ``theta = 0`` [-]: ``(b/h) (1 + N / W)``,
+            ``W = rho g b h`` the weight per unit length, ``N`` the overburden.
+        b: Block thickness [m].
+        h: Block height [m].
+        overburden: ``N`` [N/m] at the top centre.
+        t: Time of each sample in the pull [s] (from the start of pulling).
+    """
+
+    load_multiplier: Float[Array, " sample"]
+    d_over_b: Float[Array, " sample"]
+    theta: Float[Array, " sample"]
+    lambda_rigid: Float[Array, ""]
+    b: Float[Array, ""]
+    h: Float[Array, ""]
+    overburden: Float[Array, ""]
+    t: Float[Array, " sample"]
+
+    def rigid_load_multiplier(self, theta) -> Float[Array, "..."]:
+        r"""The rigid block's ``lambda`` at rotation ``theta`` [rad] (virtual work about the toe):
+
+        $$\lambda = \frac{W (b \cos\theta - h \sin\theta) + N (b \cos\theta - 2 h \sin\theta)}
+        {W (h \cos\theta + b \sin\theta)}$$
+
+        Args:
+            theta: Rotation [rad].
+
+        Returns:
+            ``lambda`` [-].
+        """
+        b, h = self.b, self.h
+        psi = self.lambda_rigid * h / b - 1.0  # N / W
+        c, s = jnp.cos(theta), jnp.sin(theta)
+        return (b * c - h * s + psi * (b * c - 2.0 * h * s)) / (h * c + b * s)
+
+
+def pushover(
+    block: Block,
+    mode: str = "two_sided",
+    overburden=0.0,
+    *,
+    beta=None,
+    d_over_b: float = 1.0,
+    duration: float | None = None,
+    n_out: int = 400,
+    joint: Joint = Joint(),
+    phi_deg=None,
+    gap=0.0,
+) -> Capacity:
+    """Quasi-static monotonic DEM pushover of a block, displacement-controlled.
+
+    A control spring (stiffness ``CONTROL_STIFFNESS m g / h``, critically damped) pulls the
+    centroid toward +x (outward for a facade) at a constant rate, after a smooth start; the
+    load multiplier is its force less the block's inertia over the weight,
+    ``lambda = (F - m x_ddot) / (m g)``, equivalent to a uniform horizontal acceleration
+    ``lambda g`` on the rigid block. The overburden, if any, is applied first (linearly over
+    ``SETTLE_FRACTION`` of the duration), vertical at the top centre. The rigid limit is
+    ``lambda_0 = (b/h)(1 + N/W)``, ``W = rho g b h`` (docs/pushover.md). Not traceable: call
+    it outside ``jit``/``vmap``.
+
+    Args:
+        block: The block (``E`` sets the joint's stiffness, Section 2).
+        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade with its return wall at
+            -x; it is pulled away from the wall).
+        overburden: Vertical load at the top centre ``N`` [N/m] (per metre of length).
+        beta: Stiffness-proportional damping [s], Eq. (1), to damp the contact vibrations;
+            default :func:`rockjax.beta_dejong` (critical damping at ``omega_crit``).
+        d_over_b: Top displacement to pull to, over ``b`` [-] (the rigid block's ``lambda``
+            reaches zero at ``d/b ~ 1``).
+        duration: Time of the pull [s]; default ``PULL_TIME / p``. Longer is more
+            quasi-static.
+        n_out: Number of output samples along the pull.
+        joint: The contact joint (:class:`rockjax.Joint`); default the integrated face law.
+        phi_deg: Friction angle [deg]; default 50 (parapets) or 30 (facades).
+        gap: Facade gap [m] (one-sided only).
+
+    Returns:
+        The :class:`Capacity` curve, ``n_out`` samples from the start of pulling.
+
+    Raises:
+        ValueError: on invalid input, naming the argument, its unit and the fix.
+    """
+    check_choice("mode", mode, MODES)
+    check_nonnegative(
+        "overburden",
+        overburden,
+        "N/m",
+        "The load per metre of wall length at the top.",
+        scalar=True,
+    )
+    check_positive(
+        "d_over_b",
+        d_over_b,
+        "[-]",
+        "The top displacement to reach over b, e.g. 1.0.",
+        scalar=True,
+    )
+    if not (isinstance(n_out, int) and not isinstance(n_out, bool) and n_out >= 2):
+        raise ValueError(f"n_out (output samples) must be an integer >= 2; got n_out={n_out!r}.")
+    if beta is None:
+        beta = float(beta_dejong(block))
+    p = float(block.p)
+    if duration is None:
+        duration = PULL_TIME / p
+    check_positive("duration", duration, "s", f"e.g. duration={PULL_TIME / p:.3g}.", scalar=True)
+    params = dem_params(block, beta, mode=mode, gap=gap, joint=joint, phi_deg=phi_deg)
+    dt = stable_dt(block, beta, mode=mode, joint=joint)
+    b, h = float(block.b), float(block.h)
+    m = float(block.m)
+    weight = m * G
+    p_top = float(overburden) * float(block.length)  # [N]
+    # the centroid's travel for the top to reach d_over_b * b, rigid kinematics about the toe
+    theta_end = _rigid_theta(d_over_b * b, b, h)
+    x_end = 0.5 * b * (1.0 - math.cos(theta_end)) + 0.5 * h * math.sin(theta_end)
+    interval = duration / (n_out - 1)  # [s] between output samples
+    n_settle = math.ceil(SETTLE_FRACTION * (n_out - 1)) if p_top > 0 else 0
+    t_settle = n_settle * interval
+    t_ramp = RAMP_FRACTION * duration
+    rate = x_end / (duration - 0.5 * t_ramp)  # the ramp loses half its length
+    k_c = CONTROL_STIFFNESS * weight / h
+    c_c = 2.0 * CONTROL_DAMPING * math.sqrt(k_c * m)
+    n_in = max(1, math.ceil(interval / dt - 1e-9))
+    dt = interval / n_in  # divides the output interval
+    control = _Control(
+        k=jnp.asarray(k_c),
+        c=jnp.asarray(c_c),
+        rate=jnp.asarray(rate),
+        t_ramp=jnp.asarray(t_ramp),
+        t_settle=jnp.asarray(t_settle),
+        p_top=jnp.asarray(p_top),
+    )
+    state0 = initial_state(params)
+    force, ax, theta, d = _pull(params, state0, control, jnp.asarray(dt), n_in, n_out + n_settle)
+    # the supports' horizontal reaction: the control force less the block's inertia (which
+    # is small but not nil where the block starts to rock)
+    force = force - m * ax
+    # drop the settling samples: the curve starts when pulling starts
+    force, theta, d = force[n_settle:], theta[n_settle:], d[n_settle:]
+    t = jnp.arange(n_out) * interval
+    return Capacity(
+        load_multiplier=force / weight,
+        d_over_b=d / b,
+        theta=theta,
+        lambda_rigid=jnp.asarray((b / h) * (1.0 + p_top / weight)),
+        b=jnp.asarray(b),
+        h=jnp.asarray(h),
+        overburden=jnp.asarray(float(overburden)),
+        t=t,
+    )
+
+
+def _rigid_theta(d, b, h):
+    """The rotation [rad] at which the rigid block's top centre has moved ``d`` [m]
+    (``d = b/2 (1 - cos theta) + h sin theta``, increasing on [0, pi/2 - ...])."""
+    lo, hi = 0.0, 0.5 * math.pi
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        if 0.5 * b * (1.0 - math.cos(mid)) + h * math.sin(mid) < d:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+class _Control(eqx.Module):
+    k: jax.Array  # control spring [N/m]
+    c: jax.Array  # its dashpot [N s/m]
+    rate: jax.Array  # control point velocity [m/s]
+    t_ramp: jax.Array  # [s]
+    t_settle: jax.Array  # [s]
+    p_top: jax.Array  # overburden force [N]
+
+    def target(self, t):
+        """Control point displacement [m] and velocity [m/s] at time ``t`` [s]: at rest while
+        settling, then a (1 - cos) velocity ramp over ``t_ramp`` to ``rate``."""
+        tp = jnp.maximum(t - self.t_settle, 0.0)
+        on = tp < self.t_ramp
+        phase = jnp.pi * jnp.minimum(tp, self.t_ramp) / self.t_ramp
+        u_ramp = self.rate * (0.5 * tp - 0.5 * self.t_ramp / jnp.pi * jnp.sin(phase))
+        v_ramp = self.rate * 0.5 * (1.0 - jnp.cos(phase))
+        u = jnp.where(on, u_ramp, self.rate * (tp - 0.5 * self.t_ramp))
+        v = jnp.where(on, v_ramp, self.rate)
+        return u, v
+
+    def load(self, state, t, h):
+        """``(Fx, Fy, M)`` on the centroid [N, N, N m] and the control force [N]."""
+        u, v = self.target(t)
+        f = self.k * (u - state.x) + self.c * (v - state.vx)
+        ramp = jnp.where(self.t_settle > 0, jnp.minimum(t / self.t_settle, 1.0), 1.0)
+        p = self.p_top * ramp
+        # vertical load at the top centre, body point (0, h/2): arm rx = (h/2) sin(theta)
+        return (f, -p, 0.5 * h * state.s * p), f
+
+
+@eqx.filter_jit
+def _pull(params, state0, control: _Control, dt, n_in: int, n_samples: int):
+    """Scan the DEM step under the control load; the control force [N], theta [rad] and top
+    displacement [m] every ``n_in`` steps (sample 0 at ``t = 0``)."""
+
+    def inner(carry, _):
+        st, k = carry
+        load, _ = control.load(st, k * dt, params.h)
+        st, _ = step(params, st, 0.0, 0.0, dt, load=load)
+        return (st, k + 1.0), None
+
+    def outer(carry, _):
+        st, k = carry
+        load, f = control.load(st, k * dt, params.h)
+        new, (ax, *_) = step(params, st, 0.0, 0.0, dt, load=load)
+        out = (f, ax, st.theta, st.x + 0.5 * params.h * st.s)
+        carry, _ = jax.lax.scan(inner, (new, k + 1.0), length=n_in - 1)
+        return carry, out
+
+    outer = jax.checkpoint(outer, prevent_cse=False)
+    _, (f, ax, theta, d) = jax.lax.scan(outer, (state0, jnp.zeros(())), length=n_samples)
+    f = eqx.error_if(f, ~jnp.all(jnp.isfinite(f)), "rockjax.pushover: non-finite state")
+    return f, ax, theta, d
