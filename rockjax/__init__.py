@@ -45,6 +45,8 @@ from . import pulses as pulses  # noqa: E402
 from . import records as records  # noqa: E402
 from . import relations as relations  # noqa: E402
 from . import spectra as spectra  # noqa: E402
+from .assembly import Assembly as Assembly  # noqa: E402
+from .assembly import collapse_multiplier as collapse_multiplier  # noqa: E402
 from .block import Block as Block  # noqa: E402
 from .building import ShearBuilding as ShearBuilding  # noqa: E402
 from .building import floor_spectra as floor_spectra  # noqa: E402
@@ -63,6 +65,9 @@ from .housner import simulate_housner as simulate_housner  # noqa: E402
 from .ida import collapse_intervals as collapse_intervals  # noqa: E402
 from .ida import ida as ida  # noqa: E402
 from .motion import GroundMotion as GroundMotion  # noqa: E402
+from .multiblock import AssemblyResponse as AssemblyResponse  # noqa: E402
+from .multiblock import simulate_assembly as simulate_assembly  # noqa: E402
+from .multiblock import stable_dt_assembly as stable_dt_assembly  # noqa: E402
 from .pulses import identify_pulse as identify_pulse  # noqa: E402
 from .pushover import Capacity as Capacity  # noqa: E402
 from .pushover import pushover as pushover  # noqa: E402
@@ -86,6 +91,8 @@ from .three_branch import fit_three_branch as fit_three_branch  # noqa: E402
 __version__ = "0.1.0"
 
 __all__ = [
+    "Assembly",
+    "AssemblyResponse",
     "Block",
     "Calibration",
     "Capacity",
@@ -103,6 +110,7 @@ __all__ = [
     "calibration",
     "campaign",
     "collapse_intervals",
+    "collapse_multiplier",
     "compilation",
     "e_housner",
     "e_isr",
@@ -128,10 +136,12 @@ __all__ = [
     "relations",
     "response_spectrum",
     "rotd_spectrum",
+    "simulate_assembly",
     "simulate_dem",
     "simulate_housner",
     "spectra",
     "stable_dt",
+    "stable_dt_assembly",
     "wall_top_motion",
     "write_at2",
 ]

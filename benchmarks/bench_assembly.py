@@ -1,0 +1,117 @@
+"""Benchmarks of the multi-block DEM (``rockjax.multiblock.simulate_assembly``): block-steps
+per second for stacks of 1, 2, 4 and 8 blocks, one history and a vmapped batch of records,
+and the per-step cost of a two-block wall against the single-block ``rj.simulate_dem``.
+A script that prints tables, not a test (STYLE.md section 5).
+
+    python benchmarks/bench_assembly.py            # 1, 2, 4, 8 blocks; batch of 64 records
+    python benchmarks/bench_assembly.py --quick    # 1, 2, 4 blocks; batch of 16
+
+Every run uses the same step ``dt`` for all models (the two-block wall's default step), so the
+numbers compare the work per step. Times are medians of repeated calls after a warm-up (the
+compile, timed separately), each ended by ``jax.block_until_ready``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+try:
+    import rockjax as rj
+except ImportError:  # run from a checkout without installing
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+    import rockjax as rj
+
+import jax  # noqa: E402
+import numpy as np  # noqa: E402
+from _timing import load, machine, timed  # noqa: E402
+
+from rockjax.assembly import Assembly  # noqa: E402
+from rockjax.multiblock import simulate_assembly, stable_dt_assembly  # noqa: E402
+
+BLOCK = dict(b=0.23, h=1.5)
+RECORD_DT = 0.01
+
+
+def _record(duration: float, pga: float, period: float = 0.4) -> rj.GroundMotion:
+    return rj.GroundMotion.sine_cycle(pga=pga, period=period, dt=RECORD_DT, duration=duration)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="1, 2, 4 blocks; batch of 16")
+    args = ap.parse_args(argv)
+    sizes = (1, 2, 4) if args.quick else (1, 2, 4, 8)
+    batch = 16 if args.quick else 64
+    duration, duration_batch = 10.0, 2.0
+    beta = 1e-3
+    print(f"machine: {machine()}; load {load()}; jax {jax.__version__}, {jax.devices()[0]}")
+    two = Assembly.stack([rj.Block(**BLOCK)] * 2, top="restrained", overburden=5e3)
+    dt = stable_dt_assembly(two, beta)
+    n_in = int(np.ceil(RECORD_DT / dt - 1e-9))
+    dt = RECORD_DT / n_in
+    print(f"dt = {dt:.3e} s ({n_in} steps per record sample), beta = {beta} s, face law\n")
+
+    rec = _record(duration, -2.0)
+    steps = (rec.n) * n_in
+    blk = rj.Block(**BLOCK)
+
+    def dem():
+        return rj.simulate_dem(blk, rec, beta=beta, dt=dt).theta
+
+    t0 = time.perf_counter()
+    jax.block_until_ready(dem())
+    c_dem = time.perf_counter() - t0
+    t_dem, t_dem_min = timed(dem, 3, warmup=False)
+    print(
+        f"rj.simulate_dem, 1 block, {duration:g} s: compile+run {c_dem:.1f} s, run "
+        f"{t_dem:.3f} s (min {t_dem_min:.3f}), {steps / t_dem:.3g} steps/s"
+    )
+
+    print(
+        f"\n{'blocks':>6} {'compile [s]':>12} {'history [s]':>12} {'block-steps/s':>14} "
+        f"{'batch [s]':>10} {'block-steps/s (batch)':>22}"
+    )
+    per_step = {}
+    for n in sizes:
+        wall = Assembly.stack([rj.Block(**BLOCK)] * n, top="restrained", overburden=5e3)
+
+        def one(wall=wall):
+            return simulate_assembly(wall, rec, beta=beta, dt=dt).theta
+
+        t0 = time.perf_counter()
+        jax.block_until_ready(one())
+        comp = time.perf_counter() - t0
+        t_one, _ = timed(one, 3, warmup=False)
+        per_step[n] = t_one / steps
+        recs = np.stack(
+            [np.asarray(_record(duration_batch, -a).ag) for a in np.linspace(1.0, 4.0, batch)]
+        )
+
+        def many(wall=wall, recs=recs):
+            return jax.vmap(
+                lambda ag: (
+                    simulate_assembly(
+                        wall, rj.GroundMotion(ag=ag, dt=RECORD_DT), beta=beta, dt=dt
+                    ).theta
+                )
+            )(recs)
+
+        t_b, _ = timed(many, 2)
+        steps_b = recs.shape[0] * recs.shape[1] * n_in
+        print(
+            f"{n:>6} {comp:>12.1f} {t_one:>12.3f} {n * steps / t_one:>14.3g} "
+            f"{t_b:>10.3f} {n * steps_b / t_b:>22.3g}"
+        )
+    ratio = per_step[2] / (t_dem / steps)
+    print(
+        f"\nper-step cost, 2-block wall / rj.simulate_dem single block: {ratio:.2f}x "
+        f"(target <= 2.5x)"
+    )
+    print(f"load at the end: {load()}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,251 @@
+"""Assemblies of rigid blocks: a wall of blocks stacked vertically on the ground, with an
+optional horizontal restraint at the top and an overburden (docs/assemblies.md).
+
+The topology is static: block ``0`` stands on the ground, block ``k`` on block ``k - 1``.
+Interface ``0`` is the ground joint under block 0, interface ``k`` the bed joint between
+blocks ``k - 1`` and ``k``: the overlap of the top face of the lower block and the bottom face
+of the upper one at rest, fixed in the upper block's frame. Every interface takes the joint
+stiffness of the block above it (``j_kn = E/h``, ``j_ks = j_kn / (2 (1 + nu))`` of that block),
+so the ground joint of a one-block assembly is that of :func:`rockjax.simulate_dem`.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from ._checks import check_choice, check_nonnegative, check_number, concrete
+from ._types import ScalarLike
+from .block import Block
+from .constants import G
+
+TOPS = ("free", "restrained")
+
+
+class Assembly(eqx.Module):
+    """A wall of rigid blocks stacked vertically (static topology).
+
+    Block ``k`` stands on block ``k - 1`` (block 0 on the ground), its centre at the
+    horizontal position ``x_offset[k]`` [m] at rest, so a block may be narrower than the one
+    below and placed off-centre; each bottom face must overlap the top face below. All blocks
+    share one out-of-plane ``length``.
+
+    The top (``top="restrained"``) may be held horizontally, e.g. by a floor diaphragm that
+    moves with the ground: two frictionless stops at ``+-gap`` [m] from the rest position of
+    the top face centre, so the top can move only ``gap`` either way and is free vertically.
+    The ``overburden`` [N/m] (the load of the storeys above, per unit length of wall) is a dead
+    vertical force ``overburden * length`` [N] at the top face centre of the top block, which
+    follows that point as the block moves (docs/assemblies.md, "Loads and supports").
+
+    Build it with :meth:`Assembly.stack`::
+
+        wall = rj.Assembly.stack([rj.Block(b=0.23, h=1.5)] * 2, top="restrained",
+                                 overburden=5e3)
+
+    Attributes:
+        blocks: The blocks, bottom to top.
+        x_offset: Horizontal position of each block's centre at rest [m] (default all 0).
+        top: ``"free"`` or ``"restrained"``.
+        gap: Clearance of the top restraint on either side [m] (``top="restrained"`` only).
+        overburden: Vertical load on the top face per unit length of wall [N/m].
+    """
+
+    blocks: tuple[Block, ...]
+    x_offset: tuple
+    top: str = eqx.field(static=True, default="free")
+    gap: ScalarLike = 0.0
+    overburden: ScalarLike = 0.0
+
+    def __check_init__(self):
+        if not isinstance(self.blocks, tuple) or len(self.blocks) == 0:
+            raise ValueError(
+                "blocks must be a non-empty tuple of rockjax.Block, bottom to top; got "
+                f"blocks={self.blocks!r}. Use rj.Assembly.stack([rj.Block(b=0.23, h=1.5), ...])."
+            )
+        for k, blk in enumerate(self.blocks):
+            if not isinstance(blk, Block):
+                raise ValueError(f"blocks[{k}] must be a rockjax.Block; got {type(blk).__name__}.")
+        if len(self.x_offset) != len(self.blocks):
+            raise ValueError(
+                f"x_offset must give one horizontal position [m] per block ({len(self.blocks)});"
+                f" got {len(self.x_offset)} values. Leave x_offset=None for all 0."
+            )
+        check_choice("top", self.top, TOPS)
+        check_nonnegative(
+            "gap", self.gap, "m", "gap is the top restraint's clearance, e.g. 0.002.", scalar=True
+        )
+        check_nonnegative(
+            "overburden",
+            self.overburden,
+            "N/m",
+            "overburden is the vertical load per metre of wall, e.g. 5e3 (5 kN/m).",
+            scalar=True,
+        )
+        for k, x in enumerate(self.x_offset):
+            check_number(f"x_offset[{k}]", x, "m", "e.g. 0.0 (centred on the block below).")
+        lengths = [concrete(b.length) for b in self.blocks]
+        if all(v is not None for v in lengths) and not np.allclose(lengths, lengths[0]):
+            raise ValueError(
+                f"all blocks of an assembly must share one out-of-plane length [m]; got "
+                f"lengths={[float(v) for v in lengths]}. Give every Block the same length."
+            )
+        for k in range(1, len(self.blocks)):
+            lo, hi = (concrete(v) for v in self.overlap(k))
+            if lo is not None and hi is not None and not hi > lo:
+                raise ValueError(
+                    f"blocks[{k}] does not rest on blocks[{k - 1}]: their faces do not overlap "
+                    f"(x_offset[{k}]={self.x_offset[k]} m, x_offset[{k - 1}]="
+                    f"{self.x_offset[k - 1]} m). Move x_offset[{k}] within (b[{k}] + b[{k - 1}])/2 "
+                    f"of x_offset[{k - 1}]."
+                )
+
+    @classmethod
+    def stack(
+        cls,
+        blocks,
+        *,
+        top: str = "free",
+        overburden: ScalarLike = 0.0,
+        gap: ScalarLike = 0.0,
+        x_offset=None,
+    ) -> Assembly:
+        """Stack ``blocks`` (bottom to top) on the ground.
+
+        Args:
+            blocks: A sequence of :class:`rockjax.Block`, bottom to top.
+            top: ``"free"`` (default) or ``"restrained"`` (a horizontal restraint at the top
+                face centre of the top block, e.g. a floor diaphragm).
+            overburden: Vertical load on the top face [N/m of wall] (default 0).
+            gap: Clearance of the top restraint on either side [m] (default 0).
+            x_offset: Horizontal position of each block's centre at rest [m]; default all 0.
+
+        Returns:
+            The :class:`Assembly`.
+
+        Raises:
+            ValueError: on an empty stack, a non-Block, faces that do not overlap, an unknown
+                ``top``, a negative ``gap`` or ``overburden``.
+        """
+        blocks = tuple(blocks)
+        if x_offset is None:
+            x_offset = (0.0,) * len(blocks)
+        return cls(
+            blocks=blocks,
+            x_offset=tuple(x_offset),
+            top=top,
+            gap=gap,
+            overburden=overburden,
+        )
+
+    @property
+    def n_blocks(self) -> int:
+        """Number of blocks."""
+        return len(self.blocks)
+
+    @property
+    def length(self):
+        """Out-of-plane length, shared by the blocks [m]."""
+        return self.blocks[0].length
+
+    @property
+    def height(self):
+        """Total height of the stack [m]."""
+        return sum(b.h for b in self.blocks)
+
+    @property
+    def mass(self):
+        """Total mass of the blocks [kg]."""
+        return sum(b.m for b in self.blocks)
+
+    @property
+    def top_load(self):
+        """The overburden force on the top face [N] (``overburden * length``)."""
+        return self.overburden * self.length
+
+    def overlap(self, k: int):
+        """The contact face of interface ``k`` in block ``k``'s frame: ``(lo, hi)`` [m], the
+        horizontal body coordinates of its ends on the bottom face (the whole face for the
+        ground joint, ``k = 0``; else the overlap with the top face of block ``k - 1``)."""
+        blk = self.blocks[k]
+        half = 0.5 * blk.b
+        if k == 0:
+            return -half, half
+        below = self.blocks[k - 1]
+        rel = self.x_offset[k - 1] - self.x_offset[k]
+        return jnp.maximum(-half, rel - 0.5 * below.b), jnp.minimum(half, rel + 0.5 * below.b)
+
+
+MECHANISMS = ("stack", "top", "hinge")
+
+
+def collapse_multiplier(assembly: Assembly, mechanism: str = "stack"):
+    """Horizontal load multiplier at the onset of a rigid-block mechanism (virtual work,
+    docs/assemblies.md "Limit analysis"): the ground acceleration ``lambda g`` [-] at which
+    the mechanism starts, with the blocks' weights as horizontal loads ``lambda W_k`` and the
+    overburden a dead vertical load (not multiplied).
+
+    With ``W_k`` the block weights, ``x_k, y_k`` their centroids at rest and ``P`` the top load:
+
+    * ``"stack"`` (free top): the whole stack about the toe ``O`` of the ground joint,
+      ``lambda = (sum_k W_k (x_O - x_k) + P (x_O - x_top)) / sum_k W_k y_k``;
+    * ``"top"`` (free top): the top block alone about the toe ``O`` of its bed joint,
+      ``lambda = (W + P) (x_O - x_N) / (W h_N / 2)``;
+    * ``"hinge"`` (``top="restrained"``, two blocks): block 0 about its ground toe ``A``,
+      block 1 about the restraint point ``C`` (top face centre, held horizontally), a hinge
+      ``B`` at the heel of the bed joint; ``lambda = (W_0 (x_A - x_0) + W_1 (a - (x_B - x_1)
+      r) + P (a - (x_B - x_C) r)) / ((W_0 + W_1) h_0 / 2)`` with ``a = x_A - x_B`` and
+      ``r = h_0 / h_1`` (both centroids move ``h_0 / 2`` per unit rotation of block 0).
+
+    The mechanism toward +x is returned (mirror the assembly for -x).
+
+    Args:
+        assembly: The assembly.
+        mechanism: ``"stack"``, ``"top"`` or ``"hinge"``.
+
+    Returns:
+        The multiplier ``lambda`` [-] (a JAX scalar).
+
+    Raises:
+        ValueError: on an unknown mechanism or one the supports do not allow.
+    """
+    check_choice("mechanism", mechanism, MECHANISMS)
+
+    blocks = assembly.blocks
+    n = len(blocks)
+    w = [b.m * G for b in blocks]
+    p = assembly.top_load
+    heights = [0.0]
+    for b in blocks:
+        heights.append(heights[-1] + b.h)
+    xs = assembly.x_offset
+    ys = [heights[k] + 0.5 * blocks[k].h for k in range(n)]
+    restrained = assembly.top == "restrained"
+    if mechanism in ("stack", "top") and restrained:
+        raise ValueError(
+            f"mechanism={mechanism!r} needs a free top (the restraint holds the top); use "
+            "mechanism='hinge' for a restrained wall, or top='free'."
+        )
+    if mechanism == "stack":
+        x_o = xs[0] + 0.5 * blocks[0].b
+        num = sum(w[k] * (x_o - xs[k]) for k in range(n)) + p * (x_o - xs[-1])
+        den = sum(w[k] * ys[k] for k in range(n))
+        return jnp.asarray(num / den, float)
+    if mechanism == "top":
+        k = n - 1
+        x_o = xs[k] + assembly.overlap(k)[1]
+        return jnp.asarray((w[k] + p) * (x_o - xs[k]) / (w[k] * 0.5 * blocks[k].h), float)
+    if n != 2 or not restrained:
+        raise ValueError(
+            "mechanism='hinge' is the two-block wall with a top restraint: build it with "
+            f"Assembly.stack([b0, b1], top='restrained'); got {n} block(s), top={assembly.top!r}."
+        )
+    b0, b1 = blocks
+    x_a = xs[0] + 0.5 * b0.b
+    x_b = xs[1] + assembly.overlap(1)[0]
+    x_c = xs[1]
+    a = x_a - x_b
+    r = b0.h / b1.h
+    num = w[0] * (x_a - xs[0]) + w[1] * (a - (x_b - xs[1]) * r) + p * (a - (x_b - x_c) * r)
+    den = 0.5 * b0.h * (w[0] + w[1])
+    return jnp.asarray(num / den, float)

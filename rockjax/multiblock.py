@@ -1,0 +1,1106 @@
+"""The multi-block DEM: an :class:`rockjax.assembly.Assembly` of rigid blocks (3 DOF each) on
+penalty joints, stepped by explicit central differences with centred dashpots inside
+``jax.lax.scan`` (the scheme of :mod:`rockjax.dem`, generalised to several bodies).
+
+Contact between two rigid bodies (docs/assemblies.md, "Two-body joints"): a point ``P`` of the
+upper block's bottom face, at body coordinate ``t`` along the face, penetrates the lower body
+(the block below, or the ground) by ``delta = h_l/2 - e2 . (P - X_l)``, ``e2`` the lower
+body's normal; the penetration rate and the slip rate are the normal and tangential parts of
+the velocity of ``P`` relative to the coincident material point of the lower body. For rigid
+bodies all of these are affine in ``t``, so the face law of :mod:`rockjax.dem` (the contact
+law of :func:`rockjax.contact.normal_force` integrated in closed form over the face, cut at
+the breakpoints of its onset window, two-point Gauss per piece; one resultant elastic-plastic
+shear spring per face) carries over unchanged: forces act along the lower body's normal and
+tangent, equal and opposite on the two bodies. ``Joint(n_sub=k)`` puts ``k`` point
+sub-contacts on each face instead (trapezoidal tributary areas).
+
+Dashpots are centred, as in :mod:`rockjax.dem`: with ``F`` the forces at the lagged half-step
+velocities and ``C`` the dashpot matrix of all closed contacts, ``(M + dt/2 C) a = F``. ``C``
+couples the two blocks of each joint, so the system is block-tridiagonal (3 x 3 blocks); it is
+solved exactly every step by block elimination (no lag: the scheme stays second-order and the
+one-block assembly reproduces :func:`rockjax.simulate_dem`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Bool, Float, Int
+
+from ._checks import (
+    check_choice,
+    check_nonnegative,
+    check_positive,
+    check_samples,
+    check_scalar,
+    concrete,
+)
+from .assembly import Assembly
+from .block import Block
+from .constants import G
+from .contact import Joint, normal_force, shear_force
+from .dem import DT_ACCURACY, DT_ACCURACY_SUB, DT_SAFETY, dem_params, initial_state
+from .motion import GroundMotion
+from .response import (
+    STATUS_BAD_INPUT,
+    STATUS_MESSAGES,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    STATUS_UNSTABLE,
+)
+
+DEFAULT_SAVE_DT = 0.002
+"""Output interval [s] for free motion (no record)."""
+
+SAVE_OPTIONS = ("energy",)
+
+_GAUSS = (-1.0 / math.sqrt(3.0), 1.0 / math.sqrt(3.0))
+
+
+class AssemblyParams(eqx.Module):
+    """Everything the multi-block step needs, as arrays (built by :func:`assembly_params`).
+
+    Per block (shape ``(n_blocks,)``): ``m`` [kg], ``I_c`` [kg m^2], ``b``, ``h``, ``eta``,
+    ``x0`` (centre at rest [m]). Per interface ``k`` (under block ``k``): ``lo``, ``hi`` (ends
+    of the contact face in block ``k``'s frame [m]), ``kn_line``, ``ks_line`` (stiffness per
+    unit face length [N/m^2]). Scalars: ``beta`` [s], ``tan_phi``, ``top_load`` [N], ``gap``
+    [m], ``k_top`` (top restraint spring [N/m])."""
+
+    m: jax.Array
+    I_c: jax.Array
+    b: jax.Array
+    h: jax.Array
+    eta: jax.Array
+    x0: jax.Array
+    lo: jax.Array
+    hi: jax.Array
+    kn_line: jax.Array
+    ks_line: jax.Array
+    beta: jax.Array
+    tan_phi: jax.Array
+    top_load: jax.Array
+    gap: jax.Array
+    k_top: jax.Array
+    n_sub: int | str = eqx.field(static=True)
+    dashpot: str = eqx.field(static=True)
+    onset: str = eqx.field(static=True)
+    restrained: bool = eqx.field(static=True)
+
+    @property
+    def n(self) -> int:
+        return self.m.shape[0]
+
+    @property
+    def face(self) -> bool:
+        return self.n_sub == "exact"
+
+
+class AssemblyState(eqx.Module):
+    """Central-difference state of the blocks, one scalar per block in each tuple: centroid
+    ``x, y`` [m] (base frame, ground surface ``y = 0``), ``c, s`` (cos, sin theta), ``vx, vy``
+    [m/s] and ``w`` [rad/s] at the half step, ``theta`` [rad], ``theta_max`` (running max of
+    ``|theta|``); ``fs``: per interface, the shear spring force(s) [N] (one per face with the
+    integrated face law, one per sub-contact with integer ``n_sub``)."""
+
+    x: tuple
+    y: tuple
+    c: tuple
+    s: tuple
+    vx: tuple
+    vy: tuple
+    w: tuple
+    theta: tuple
+    theta_max: tuple
+    fs: tuple
+
+
+class AssemblyResponse(eqx.Module):
+    """A simulated history of an assembly, sampled at ``t``; the last axis of the per-block
+    series is the block (bottom to top).
+
+    Attributes:
+        t: Sample times [s].
+        theta: Rotation of each block [rad] (positive clockwise: the top toward +x).
+        theta_dot: Angular velocity of each block [rad/s].
+        x: Horizontal displacement of each centroid from its rest position [m].
+        y: Height of each centroid above the ground surface [m].
+        overturned: True once the assembly collapsed (a block or a sub-stack past its unstable
+            point, or a block off its support); the state is frozen from then on.
+        status: 0 if the run is valid, else a code in ``rockjax.response.STATUS_MESSAGES``.
+        theta_max: Largest ``|theta|`` of each block over the run, between samples too [rad].
+        eta: Slenderness ``atan(b/h)`` of each block [rad].
+        energy: Total mechanical energy [J] (kinetic + gravity + overburden + contact springs),
+            or None when not requested.
+        dt: The time step used [s].
+    """
+
+    t: Float[Array, " time"]
+    theta: Float[Array, "time block"]
+    theta_dot: Float[Array, "time block"]
+    x: Float[Array, "time block"]
+    y: Float[Array, "time block"]
+    overturned: Bool[Array, ""]
+    status: Int[Array, ""]
+    theta_max: Float[Array, " block"]
+    eta: Float[Array, " block"]
+    energy: Float[Array, " time"] | None
+    dt: Float[Array, ""]
+
+
+# ----------------------------------------------------------------------------- parameters
+
+
+def assembly_params(
+    assembly: Assembly, beta=0.0, *, joint: Joint = Joint(), phi_deg=50.0
+) -> AssemblyParams:
+    """Collect the assembly, joint and damping into :class:`AssemblyParams` (traceable).
+
+    Args:
+        assembly: The assembly.
+        beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1).
+        joint: The joint of every interface (:class:`rockjax.Joint`).
+        phi_deg: Friction angle of every interface [deg].
+    """
+    if not isinstance(assembly, Assembly):
+        raise ValueError(
+            f"assembly must be a rockjax Assembly, e.g. Assembly.stack([rj.Block(b=0.23, "
+            f"h=1.5)] * 2); got {type(assembly).__name__}."
+        )
+    if not isinstance(joint, Joint):
+        raise ValueError(
+            f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
+        )
+    check_nonnegative(
+        "beta", beta, "s", "beta is the stiffness-proportional Rayleigh coefficient.", scalar=True
+    )
+    check_scalar("phi_deg", phi_deg, "deg", "e.g. phi_deg=50.")
+    phi = concrete(phi_deg)
+    if phi is not None and not (0.0 < phi < 90.0):
+        raise ValueError(f"phi_deg (friction angle, degrees) must be in (0, 90); got {phi_deg}.")
+    blocks = assembly.blocks
+    n = len(blocks)
+
+    def arr(values):
+        return jnp.stack([jnp.asarray(v, float) for v in values])
+
+    ends = [assembly.overlap(k) for k in range(n)]
+    top = blocks[-1]
+    return AssemblyParams(
+        m=arr([b.m for b in blocks]),
+        I_c=arr([b.I_c for b in blocks]),
+        b=arr([b.b for b in blocks]),
+        h=arr([b.h for b in blocks]),
+        eta=arr([b.eta for b in blocks]),
+        x0=arr(assembly.x_offset),
+        lo=arr([e[0] for e in ends]),
+        hi=arr([e[1] for e in ends]),
+        kn_line=arr([b.j_kn * b.length for b in blocks]),
+        ks_line=arr([b.j_ks * b.length for b in blocks]),
+        beta=jnp.asarray(beta, float),
+        tan_phi=jnp.tan(jnp.deg2rad(jnp.asarray(phi_deg, float))),
+        top_load=jnp.asarray(assembly.top_load, float),
+        gap=jnp.asarray(assembly.gap, float),
+        # the top restraint is as stiff as the top block's whole bed joint in compression
+        k_top=jnp.asarray(top.j_kn * top.b * top.length, float),
+        n_sub=joint.n_sub,
+        dashpot=joint.dashpot,
+        onset=joint.onset,
+        restrained=assembly.top == "restrained",
+    )
+
+
+def _springs(p: AssemblyParams, k: int):
+    """The springs of interface ``k`` for the all-closed stiffness: positions ``t`` along the
+    face [m] and the normal and shear stiffnesses [N/m] (the two-point Gauss rule of the face
+    for the integrated law: it gives the continuous joint's all-closed stiffness exactly)."""
+    lo, hi = p.lo[k], p.hi[k]
+    width = hi - lo
+    if p.face:
+        tau = np.array([0.5 - 0.5 / math.sqrt(3.0), 0.5 + 0.5 / math.sqrt(3.0)])
+        wts = np.array([0.5, 0.5])
+    else:
+        tau = np.linspace(0.0, 1.0, p.n_sub)
+        wts = np.ones(p.n_sub) / (p.n_sub - 1)
+        wts[0] = wts[-1] = 0.5 / (p.n_sub - 1)
+    t = lo + width * jnp.asarray(tau)
+    w = jnp.asarray(wts) * width
+    return t, p.kn_line[k] * w, p.ks_line[k] * w
+
+
+def omega_max(p: AssemblyParams):
+    """Highest circular frequency [rad/s] of the assembly at rest with every spring closed
+    (an upper bound over contact states, as :func:`rockjax.dem.omega_max` for one block)."""
+    n = p.n
+    k_mat = jnp.zeros((3 * n, 3 * n))
+    for k in range(n):
+        t, kn, ks = _springs(p, k)
+        zero, one = jnp.zeros_like(t), jnp.ones_like(t)
+        # rows of the relative normal (vertical) and tangential (horizontal) point motion
+        up_n = jnp.stack([zero, one, -t], axis=-1)
+        up_s = jnp.stack([one, zero, -0.5 * p.h[k] * one], axis=-1)
+        cols = list(range(3 * k, 3 * k + 3))
+        if k == 0:
+            a_n, a_s = up_n, up_s
+        else:
+            dx = p.x0[k] + t - p.x0[k - 1]
+            lo_n = jnp.stack([zero, -one, dx], axis=-1)
+            lo_s = jnp.stack([-one, zero, -0.5 * p.h[k - 1] * one], axis=-1)
+            a_n = jnp.concatenate([lo_n, up_n], axis=-1)
+            a_s = jnp.concatenate([lo_s, up_s], axis=-1)
+            cols = list(range(3 * k - 3, 3 * k + 3))
+        sub = jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
+        idx = jnp.asarray(cols)
+        k_mat = k_mat.at[idx[:, None], idx[None, :]].add(sub)
+    if p.restrained:
+        a = jnp.zeros(3 * n).at[3 * n - 3].set(1.0).at[3 * n - 1].set(0.5 * p.h[-1])
+        k_mat = k_mat + p.k_top * jnp.outer(a, a)
+    mass = jnp.stack([p.m, p.m, p.I_c], axis=-1).reshape(-1)
+    inv = 1.0 / jnp.sqrt(mass)
+    return jnp.sqrt(jnp.max(jnp.linalg.eigvalsh(k_mat * inv[:, None] * inv[None, :])))
+
+
+def _steps(p: AssemblyParams, accuracy):
+    w = omega_max(p)
+    zeta = 0.5 * p.beta * w
+    return 2.0 / w, jnp.minimum(accuracy / (w * (1.0 + zeta)), DT_SAFETY * 2.0 / w)
+
+
+_steps_jit = jax.jit(_steps)
+
+
+def stable_dt_assembly(
+    assembly: Assembly,
+    beta=0.0,
+    *,
+    joint: Joint = Joint(),
+    accuracy: float | None = None,
+) -> float:
+    """The default time step [s] of :func:`simulate_assembly` (before rounding to divide the
+    output step): the rule of :func:`rockjax.stable_dt`, ``accuracy / (omega_max (1 + zeta))``,
+    ``zeta = beta omega_max / 2``, at most ``DT_SAFETY`` times the stability limit, with
+    ``omega_max`` the highest frequency of the whole assembly on all its springs closed.
+
+    Args:
+        assembly: The assembly.
+        beta: Stiffness-proportional damping coefficient [s], Eq. (1).
+        joint: The joint (:class:`rockjax.Joint`).
+        accuracy: ``omega_max dt (1 + zeta)`` [-]; default that of a parapet in
+            :func:`rockjax.simulate_dem` (``DT_ACCURACY`` / ``DT_ACCURACY_SUB``).
+    """
+    p = assembly_params(assembly, beta, joint=joint)
+    return float(_steps_jit(p, _check_accuracy(accuracy, joint))[1])
+
+
+def _check_accuracy(accuracy, joint):
+    default = (DT_ACCURACY if joint.face else DT_ACCURACY_SUB)["two_sided"]
+    if accuracy is None:
+        return default
+    if not (isinstance(accuracy, (int, float)) and np.isfinite(accuracy) and accuracy > 0):
+        raise ValueError(
+            f"accuracy (omega_max dt (1 + zeta), dimensionless) must be a positive float; got "
+            f"accuracy={accuracy!r}. Leave accuracy=None for the default ({default})."
+        )
+    return float(accuracy)
+
+
+# ----------------------------------------------------------------------------- 3 x 3 algebra
+
+
+def _zero(x) -> bool:
+    return isinstance(x, float) and x == 0.0
+
+
+def _mul(a, b):
+    """``a * b`` with Python zeros and ones folded (XLA keeps ``x * 0.0`` for NaN semantics)."""
+    if _zero(a) or _zero(b):
+        return 0.0
+    if isinstance(a, float) and a == 1.0:
+        return b
+    if isinstance(b, float) and b == 1.0:
+        return a
+    return a * b
+
+
+def _plus(*terms):
+    """Sum with Python zeros dropped."""
+    out = 0.0
+    for t in terms:
+        if not _zero(t):
+            out = t if _zero(out) else out + t
+    return out
+
+
+def _inv3(a):
+    """Inverse of a 3 x 3 matrix given as nested lists of scalars (adjugate / determinant)."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+
+    def det2(p, q, r, s_):
+        return _plus(_mul(p, q), -_mul(r, s_) if not _zero(_mul(r, s_)) else 0.0)
+
+    c00 = det2(a11, a22, a12, a21)
+    c01 = det2(a12, a20, a10, a22)
+    c02 = det2(a10, a21, a11, a20)
+    det = _plus(_mul(a00, c00), _mul(a01, c01), _mul(a02, c02))
+    r = 1.0 / det
+    return [
+        [_mul(c00, r), _mul(det2(a02, a21, a01, a22), r), _mul(det2(a01, a12, a02, a11), r)],
+        [_mul(c01, r), _mul(det2(a00, a22, a02, a20), r), _mul(det2(a02, a10, a00, a12), r)],
+        [_mul(c02, r), _mul(det2(a01, a20, a00, a21), r), _mul(det2(a00, a11, a01, a10), r)],
+    ]
+
+
+def _mv(a, v):
+    return [_plus(*(_mul(a[i][j], v[j]) for j in range(3))) for i in range(3)]
+
+
+def _mm(a, b):
+    return [
+        [_plus(*(_mul(a[i][j], b[j][k]) for j in range(3))) for k in range(3)] for i in range(3)
+    ]
+
+
+def _tr(a):
+    return [[a[j][i] for j in range(3)] for i in range(3)]
+
+
+def _solve_tridiagonal(diag, lower, rhs):
+    """Solve the symmetric block-tridiagonal system with diagonal blocks ``diag[k]``,
+    ``A[k, k-1] = lower[k]`` (``lower[0]`` unused) and right-hand sides ``rhs[k]`` by block
+    elimination (3 x 3 blocks)."""
+    n = len(diag)
+    dp, gp, inv = [diag[0]], [rhs[0]], [_inv3(diag[0])]
+    for k in range(1, n):
+        lk = lower[k]
+        li = _mm(lk, inv[k - 1])
+        lt = _tr(lk)
+        corr = _mm(li, lt)
+        dk = [[_plus(diag[k][i][j], _mul(-1.0, corr[i][j])) for j in range(3)] for i in range(3)]
+        g = _mv(li, gp[k - 1])
+        dp.append(dk)
+        gp.append([_plus(rhs[k][i], _mul(-1.0, g[i])) for i in range(3)])
+        inv.append(_inv3(dk))
+    out = [None] * n
+    out[n - 1] = _mv(inv[n - 1], gp[n - 1])
+    for k in range(n - 2, -1, -1):
+        u = _mv(_tr(lower[k + 1]), out[k + 1])
+        out[k] = _mv(inv[k], [_plus(gp[k][i], _mul(-1.0, u[i])) for i in range(3)])
+    return out
+
+
+# ----------------------------------------------------------------------------- contact
+
+
+def _crossing(lo, hi, d_lo, d_hi):
+    """Where the affine field with end values ``d_lo``, ``d_hi`` crosses zero on [lo, hi]
+    (``lo`` when it does not)."""
+    cross = d_lo * d_hi < 0.0
+    den = jnp.where(cross, d_lo - d_hi, 1.0)
+    return lo + (hi - lo) * jnp.where(cross, d_lo / den, 0.0)
+
+
+def _closed(lo, hi, d_lo, d_hi):
+    """The sub-interval of [lo, hi] where the affine field is > 0 (empty when equal ends)."""
+    z = _crossing(lo, hi, d_lo, d_hi)
+    ca = jnp.where(d_lo > 0.0, lo, z)
+    cb = jnp.where(d_hi > 0.0, hi, z)
+    return ca, jnp.maximum(cb, ca)
+
+
+def _sorted_insert(cuts, z):
+    out, inner = [], cuts[1:-1]
+    for x in inner:
+        out.append(jnp.minimum(x, z))
+        z = jnp.maximum(x, z)
+    return [cuts[0], *out, z, cuts[-1]]
+
+
+def _pair_kinematics(p: AssemblyParams, st: AssemblyState, k: int):
+    """The geometry of interface ``k`` as a function of the face coordinate ``t``: returns
+    ``kin(t) -> (rx_u, ry_u, dx, dy, delta, delta_dot, slip)`` (arms of the point from the
+    upper and lower centroids, penetration, its rate, slip rate) and the lower body's unit
+    tangent ``e1`` and normal ``e2`` (world)."""
+    cu, su, xu, yu = st.c[k], st.s[k], st.x[k], st.y[k]
+    vxu, vyu, wu = st.vx[k], st.vy[k], st.w[k]
+    hu = 0.5 * p.h[k]
+    if k == 0:  # the ground: fixed, normal +y, surface y = 0
+
+        def kin(t):
+            rx = t * cu - hu * su
+            ry = -t * su - hu * cu
+            return rx, ry, xu + rx, yu + ry, -(yu + ry), -(vyu - wu * rx), vxu + wu * ry
+
+        return kin, (1.0, 0.0), (0.0, 1.0), None
+    cl, sl, xl, yl = st.c[k - 1], st.s[k - 1], st.x[k - 1], st.y[k - 1]
+    vxl, vyl, wl = st.vx[k - 1], st.vy[k - 1], st.w[k - 1]
+    hl = 0.5 * p.h[k - 1]
+    e1, e2 = (cl, -sl), (sl, cl)
+    x_rel, y_rel = xu - xl, yu - yl
+
+    def kin(t):
+        rx = t * cu - hu * su
+        ry = -t * su - hu * cu
+        dx, dy = x_rel + rx, y_rel + ry
+        gx = vxu + wu * ry - vxl - wl * dy
+        gy = vyu - wu * rx - vyl + wl * dx
+        return (
+            rx,
+            ry,
+            dx,
+            dy,
+            hl - (sl * dx + cl * dy),
+            -(sl * gx + cl * gy),
+            cl * gx - sl * gy,
+        )
+
+    return kin, e1, e2, (x_rel, y_rel)
+
+
+def _quadratic_c(m0, m1, m2, p0, p1, q0, q1):
+    """``int w (p0 + p1 tau) (q0 + q1 tau)^T`` from the moments ``m_j = int w tau^j``."""
+    return [
+        [
+            _plus(
+                _mul(m0, _mul(p0[i], q0[j])),
+                _mul(m1, _plus(_mul(p0[i], q1[j]), _mul(p1[i], q0[j]))),
+                _mul(m2, _mul(p1[i], q1[j])),
+            )
+            for j in range(3)
+        ]
+        for i in range(3)
+    ]
+
+
+def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt):
+    """Forces of interface ``k`` (integrated face law or point sub-contacts).
+
+    Returns ``(F_u, F_l, C_uu, C_ll, C_ul, fs_new, fn)``: generalised forces ``(Fx, Fy, M)`` on
+    the upper and lower block (``F_l`` None for the ground), the dashpot matrix blocks, the
+    new shear springs and the total normal force [N]."""
+    kin, e1, e2, rel = _pair_kinematics(p, st, k)
+    lo, hi = p.lo[k], p.hi[k]
+    width = hi - lo
+    ground = k == 0
+    ends = [kin(lo), kin(hi)]
+    dt_onset = dt if p.onset == "sub_step" else None
+    clipped = p.dashpot == "clipped"
+    beta = p.beta
+
+    def arms(e, r):
+        rx, ry = r
+        # clockwise moment of a unit force along e at offset r
+        return _plus(_mul(ry, e[0]), _mul(-1.0, _mul(rx, e[1])))
+
+    an_u = [arms(e2, end[0:2]) for end in ends]
+    as_u = [arms(e1, end[0:2]) for end in ends]
+
+    d_lo, d_hi = ends[0][4], ends[1][4]
+    r_lo, r_hi = ends[0][5], ends[1][5]
+    if p.face:
+        kn, ks = p.kn_line[k], p.ks_line[k]
+        if dt_onset is not None:
+            hw = 0.5 * dt
+            z1 = _crossing(lo, hi, d_lo - hw * r_lo, d_hi - hw * r_hi)
+            z2 = _crossing(lo, hi, d_lo + hw * r_lo, d_hi + hw * r_hi)
+            cuts = [lo, jnp.minimum(z1, z2), jnp.maximum(z1, z2), hi]
+        else:
+            cuts = [lo, _crossing(lo, hi, d_lo, d_hi), hi]
+        if clipped:
+            cuts = _sorted_insert(cuts, _crossing(lo, hi, d_lo + beta * r_lo, d_hi + beta * r_hi))
+        pts = []
+        for a, b_ in zip(cuts[:-1], cuts[1:]):
+            mid, half = 0.5 * (a + b_), 0.5 * (b_ - a)
+            for xg in _GAUSS:
+                pts.append((mid + half * xg, half))
+    else:
+        n_sub = p.n_sub
+        wts = [1.0] * n_sub
+        wts[0] = wts[-1] = 0.5
+        step = width / (n_sub - 1)
+        pts = [(lo + step * i, wts[i] * step) for i in range(n_sub)]
+    # all points at once: the sums over the face come out of one reduction, computed once
+    # (as scalars, XLA:CPU recomputed them inside every fusion that consumed them)
+    t = jnp.stack([jnp.asarray(q[0], float) for q in pts])
+    wgt = jnp.stack([jnp.asarray(q[1], float) for q in pts])
+    tau = (t - lo) / width
+    delta = d_lo + tau * (d_hi - d_lo)
+    rate = r_lo + tau * (r_hi - r_lo)
+    slip = ends[0][6] + tau * (ends[1][6] - ends[0][6])
+    wf_el = jnp.zeros_like(t)
+    if p.face:
+        f, f_el, frac = normal_force(delta, rate, kn, beta, p.dashpot, dt_onset)
+        wf, wfn, wf_el = wgt * frac, wgt * f, wgt * f_el
+        fs_arr = jnp.zeros_like(t)
+    else:
+        kn_i, ks_i = p.kn_line[k] * wgt, p.ks_line[k] * wgt
+        f, f_el, frac = normal_force(delta, rate, kn_i, beta, p.dashpot, dt_onset)
+        fs_old = jnp.stack([jnp.asarray(v, float) for v in st.fs[k]])
+        _, fs_arr = shear_force(fs_old, slip, dt, ks_i, f_el, p.tan_phi, beta, frac)
+        wf, wfn = wgt * frac, f
+    wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
+    sums = jnp.sum(
+        jnp.stack(
+            [
+                wfn,
+                wf_el,
+                wfn * tau,
+                wn,
+                wn * tau,
+                wn * tau * tau,
+                wf,
+                wf * tau,
+                wf * tau * tau,
+                wf * slip,
+                wf * slip * tau,
+                fs_arr,
+                fs_arr * tau,
+            ]
+        ),
+        axis=-1,
+    )
+    fn, fn_el, fn1, n0, n1, n2, s0, s1, s2, v0, v1, fs_tot, fs_tau = (sums[i] for i in range(13))
+    fs_pts = [fs_arr[i] for i in range(len(pts))]
+    if p.face:
+        kn_c, ks_c = kn, ks
+        (f_s,) = st.fs[k]
+        # the resultant shear spring keeps the share of its closed length that stays closed
+        # (rockjax.dem's "uniform" release); the previous penetration is delta - dt delta_dot
+        ca_old, cb_old = _closed(lo, hi, d_lo - dt * r_lo, d_hi - dt * r_hi)
+        ca, cb = _closed(lo, hi, d_lo, d_hi)
+        ka, kb = jnp.maximum(ca, ca_old), jnp.minimum(cb, cb_old)
+        kb = jnp.maximum(kb, ka)
+        whole, kept = cb_old - ca_old, kb - ka
+        safe = jnp.where(whole > 0.0, whole, 1.0)
+        f_s = f_s * jnp.where(whole > 0.0, jnp.clip(kept / safe, 0.0, 1.0), 0.0)
+        limit = p.tan_phi * fn_el
+        f_s = jnp.clip(f_s - ks * v0 * dt, -limit, limit)
+        tau_bar = jnp.where(s0 > 0.0, s1 / jnp.where(s0 > 0.0, s0, 1.0), 0.0)
+        fs_new = (f_s,)
+        fs_mom_tau = f_s * tau_bar  # int of the spring force times tau
+    else:
+        kn_c, ks_c = p.kn_line[k], p.ks_line[k]  # the weights above carry the areas
+        f_s, fs_mom_tau = fs_tot, fs_tau
+        fs_new = tuple(fs_pts)
+    ft = f_s - beta * ks_c * v0
+    fx = _plus(_mul(fn, e2[0]), _mul(ft, e1[0]))
+    fy = _plus(_mul(fn, e2[1]), _mul(ft, e1[1]))
+
+    def moment(an, as_):
+        # int f arm_n + shear spring force arm_s - shear dashpot arm_s, arms affine in tau
+        dn, ds = an[1] - an[0], as_[1] - as_[0]
+        return (
+            an[0] * fn
+            + dn * fn1
+            + as_[0] * f_s
+            + ds * fs_mom_tau
+            - beta * ks_c * (as_[0] * v0 + ds * v1)
+        )
+
+    f_u = (fx, fy, moment(an_u, as_u))
+    cn, cs = beta * kn_c, beta * ks_c
+    # dashpot rows: upper (e, arm_u), lower -(e, arm_l); affine in tau
+    pn0 = (e2[0], e2[1], an_u[0])
+    pn1 = (0.0, 0.0, an_u[1] - an_u[0])
+    ps0 = (e1[0], e1[1], as_u[0])
+    ps1 = (0.0, 0.0, as_u[1] - as_u[0])
+    c_uu = _add(
+        _scale(cn, _quadratic_c(n0, n1, n2, pn0, pn1, pn0, pn1)),
+        _scale(cs, _quadratic_c(s0, s1, s2, ps0, ps1, ps0, ps1)),
+    )
+    fn_out = fn
+    if ground:
+        return f_u, None, c_uu, None, None, fs_new, fn_out
+    # the lower body: the opposite forces, with arms shifted by X_u - X_l, a constant, so the
+    # lower rows of the dashpot are the upper ones plus a constant in the moment entry
+    x_rel, y_rel = rel
+    f_l = (-fx, -fy, -(f_u[2] + y_rel * fx - x_rel * fy))
+    c_ll = [[0.0] * 3 for _ in range(3)]
+    c_ul = [[0.0] * 3 for _ in range(3)]
+    for c_, (m0, m1), e, p0, p1, s_mat in (
+        (cn, (n0, n1), e2, pn0, pn1, _quadratic_c(n0, n1, n2, pn0, pn1, pn0, pn1)),
+        (cs, (s0, s1), e1, ps0, ps1, _quadratic_c(s0, s1, s2, ps0, ps1, ps0, ps1)),
+    ):
+        kappa = _plus(_mul(y_rel, e[0]), _mul(-1.0, _mul(x_rel, e[1])))
+        v = [_plus(_mul(m0, p0[i]), _mul(m1, p1[i])) for i in range(3)]
+        ll = [[s_mat[i][j] for j in range(3)] for i in range(3)]
+        ul = [[_mul(-1.0, s_mat[i][j]) for j in range(3)] for i in range(3)]
+        for i in range(3):
+            ll[i][2] = _plus(ll[i][2], _mul(kappa, v[i]))
+            ll[2][i] = _plus(ll[2][i], _mul(kappa, v[i]))
+            ul[i][2] = _plus(ul[i][2], _mul(-1.0, _mul(kappa, v[i])))
+        ll[2][2] = _plus(ll[2][2], _mul(_mul(kappa, kappa), m0))
+        c_ll = _add(c_ll, _scale(c_, ll))
+        c_ul = _add(c_ul, _scale(c_, ul))
+    return f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn_out
+
+
+def _scale(a, m):
+    return [[_mul(a, m[i][j]) for j in range(3)] for i in range(3)]
+
+
+def _add(a, b):
+    return [[_plus(a[i][j], b[i][j]) for j in range(3)] for i in range(3)]
+
+
+def _top(p: AssemblyParams, st: AssemblyState, dt):
+    """Overburden and top restraint on the top block: generalised force and dashpot block."""
+    k = p.n - 1
+    c, s = st.c[k], st.s[k]
+    rx, ry = 0.5 * p.h[k] * s, 0.5 * p.h[k] * c  # top face centre from the centroid
+    fx = 0.0
+    fy = -p.top_load
+    mom = rx * p.top_load  # ry * 0 - rx * (-P)
+    cmat = None
+    if p.restrained:
+        qx = st.x[k] + rx
+        qxd = st.vx[k] + st.w[k] * ry
+        dt_onset = dt if p.onset == "sub_step" else None
+        ref = p.x0[k]
+        f_r, _, frac_r = normal_force(qx - ref - p.gap, qxd, p.k_top, p.beta, p.dashpot, dt_onset)
+        f_l, _, frac_l = normal_force(ref - p.gap - qx, -qxd, p.k_top, p.beta, p.dashpot, dt_onset)
+        fq = f_l - f_r  # horizontal force on the block at the top face centre
+        fx = fx + fq
+        mom = mom + ry * fq
+        wr = frac_r if p.dashpot != "clipped" else jnp.where(f_r > 0, frac_r, 0.0)
+        wl = frac_l if p.dashpot != "clipped" else jnp.where(f_l > 0, frac_l, 0.0)
+        cq = p.beta * p.k_top * (wr + wl)
+        a = (1.0, 0.0, ry)
+        cmat = [[cq * a[i] * a[j] for j in range(3)] for i in range(3)]
+    return (fx, fy, mom), cmat
+
+
+def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt):
+    """One central-difference step of the assembly with centred dashpots (the scheme of
+    :mod:`rockjax.dem`: ``(M + dt/2 C) a_n = F``, solved by block elimination)."""
+    n = p.n
+    force = [[0.0, 0.0, 0.0] for _ in range(n)]
+    cdiag = [[[0.0] * 3 for _ in range(3)] for _ in range(n)]
+    clow = [None] * n
+    fs_all, fn_all = [], []
+    for k in range(n):
+        f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn = _interface(p, st, k, dt)
+        fs_all.append(fs_new)
+        fn_all.append(fn)
+        force[k] = [_plus(force[k][i], f_u[i]) for i in range(3)]
+        cdiag[k] = _add(cdiag[k], c_uu)
+        if f_l is not None:
+            force[k - 1] = [_plus(force[k - 1][i], f_l[i]) for i in range(3)]
+            cdiag[k - 1] = _add(cdiag[k - 1], c_ll)
+            clow[k] = c_ul
+    f_top, c_top = _top(p, st, dt)
+    force[n - 1] = [_plus(force[n - 1][i], f_top[i]) for i in range(3)]
+    if c_top is not None:
+        cdiag[n - 1] = _add(cdiag[n - 1], c_top)
+    h = 0.5 * dt
+    diag, lower, rhs = [], [], []
+    for k in range(n):
+        mk, ik = p.m[k], p.I_c[k]
+        mass = (mk, mk, ik)
+        diag.append(
+            [
+                [_plus(mass[i] if i == j else 0.0, _mul(h, cdiag[k][i][j])) for j in range(3)]
+                for i in range(3)
+            ]
+        )
+        lower.append(None if clow[k] is None else _scale(h, clow[k]))
+        rhs.append([force[k][0] - mk * ag, force[k][1] - mk * (G + ag_v), _plus(force[k][2])])
+    acc = _solve_tridiagonal(diag, lower, rhs)
+    new = {f: [] for f in ("x", "y", "c", "s", "vx", "vy", "w", "theta", "theta_max")}
+    for k in range(n):
+        ax, ay, aw = acc[k]
+        vx = st.vx[k] + dt * ax
+        vy = st.vy[k] + dt * ay
+        w = st.w[k] + dt * aw
+        dth = dt * w
+        d2 = dth * dth
+        cd = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0 - d2 / 720.0))
+        sd = dth * (1.0 - d2 * (1.0 / 6.0 - d2 / 120.0))
+        c, s = st.c[k], st.s[k]
+        new["x"].append(st.x[k] + dt * vx)
+        new["y"].append(st.y[k] + dt * vy)
+        new["c"].append(c * cd - s * sd)
+        new["s"].append(s * cd + c * sd)
+        new["vx"].append(vx)
+        new["vy"].append(vy)
+        new["w"].append(w)
+        new["theta"].append(st.theta[k] + dth)
+        new["theta_max"].append(jnp.maximum(st.theta_max[k], jnp.abs(st.theta[k])))
+    out = AssemblyState(**{key: tuple(v) for key, v in new.items()}, fs=tuple(fs_all))
+    return out, acc
+
+
+# ----------------------------------------------------------------------------- energy, collapse
+
+
+def _energy(p: AssemblyParams, st: AssemblyState, vel):
+    """Kinetic + gravity + overburden + spring energy [J] (springs integrated exactly)."""
+    e = 0.0
+    for k in range(p.n):
+        vx, vy, w = vel[k]
+        e = e + 0.5 * p.m[k] * (vx**2 + vy**2) + 0.5 * p.I_c[k] * w**2
+        e = e + p.m[k] * G * st.y[k]
+        kin = _pair_kinematics(p, st, k)[0]
+        lo, hi = p.lo[k], p.hi[k]
+        d_lo, d_hi = kin(lo)[4], kin(hi)[4]
+        if p.face:
+            ca, cb = _closed(lo, hi, d_lo, d_hi)
+            mid, half = 0.5 * (ca + cb), 0.5 * (cb - ca)
+            for xg in _GAUSS:
+                tau = (mid + half * xg - lo) / (hi - lo)
+                d = d_lo + tau * (d_hi - d_lo)
+                e = e + 0.5 * p.kn_line[k] * half * jnp.maximum(d, 0.0) ** 2
+            length = cb - ca
+            safe = jnp.where(length > 0.0, length, 1.0)
+            e = e + jnp.where(length > 0.0, 0.5 * st.fs[k][0] ** 2 / (p.ks_line[k] * safe), 0.0)
+        else:
+            n_sub = p.n_sub
+            step = (hi - lo) / (n_sub - 1)
+            for i in range(n_sub):
+                wgt = (0.5 if i in (0, n_sub - 1) else 1.0) * step
+                d = d_lo + i / (n_sub - 1) * (d_hi - d_lo)
+                e = e + 0.5 * p.kn_line[k] * wgt * jnp.maximum(d, 0.0) ** 2
+                e = e + 0.5 * st.fs[k][i] ** 2 / (p.ks_line[k] * wgt)
+    k = p.n - 1
+    qx = st.x[k] + 0.5 * p.h[k] * st.s[k]
+    qy = st.y[k] + 0.5 * p.h[k] * st.c[k]
+    e = e + p.top_load * qy
+    if p.restrained:
+        over = jnp.maximum(jnp.abs(qx - p.x0[k]) - p.gap, 0.0)
+        e = e + 0.5 * p.k_top * over**2
+    return e
+
+
+def _collapsed(p: AssemblyParams, st: AssemblyState):
+    """The collapse rule (docs/assemblies.md, "Collapse"): a block past ``|theta| > eta``
+    rotating outward (the one-block rule of :func:`rockjax.simulate_dem`); with a free top, a
+    sub-stack whose centre of gravity (overburden included) has passed the edge of its
+    support and moves outward; a block whose centroid has slid off the block below."""
+    over = jnp.zeros((), bool)
+    for k in range(p.n):
+        th, w = st.theta[k], st.w[k]
+        over = over | ((jnp.abs(th) > p.eta[k]) & (th * w > 0))
+    if p.n > 1 and not p.restrained:
+        k_top = p.n - 1
+        qx = st.x[k_top] + 0.5 * p.h[k_top] * st.s[k_top]
+        qvx = st.vx[k_top] + st.w[k_top] * 0.5 * p.h[k_top] * st.c[k_top]
+        wq = p.top_load / G
+        mass, mx, mv = wq, wq * qx, wq * qvx
+        for k in range(p.n - 1, -1, -1):
+            mass = mass + p.m[k]
+            mx = mx + p.m[k] * st.x[k]
+            mv = mv + p.m[k] * st.vx[k]
+            gx, gv = mx / mass, mv / mass
+            c, s = st.c[k], st.s[k]
+            hh = 0.5 * p.h[k]
+            edge_lo = st.x[k] + p.lo[k] * c - hh * s
+            edge_hi = st.x[k] + p.hi[k] * c - hh * s
+            over = over | ((gx > edge_hi) & (gv > 0)) | ((gx < edge_lo) & (gv < 0))
+    for k in range(1, p.n):
+        cl, sl = st.c[k - 1], st.s[k - 1]
+        u = cl * (st.x[k] - st.x[k - 1]) - sl * (st.y[k] - st.y[k - 1])
+        over = over | (jnp.abs(u) > 0.5 * p.b[k - 1])
+    return over
+
+
+# ----------------------------------------------------------------------------- initial state
+
+
+def initial_assembly_state(
+    assembly: Assembly, p: AssemblyParams, theta0=0.0, joint: Joint = Joint()
+) -> AssemblyState:
+    """At rest under gravity and the overburden: the whole stack tilted rigidly by ``theta0``
+    [rad] about the pivot corner of block 0 (or flat for ``theta0 = 0``).
+
+    The ground joint settles as under one block carrying the whole weight (the equilibrium
+    sink of :func:`rockjax.dem.initial_state`, computed by it for a block of block 0's shape
+    and the total weight); each bed joint settles uniformly under the weight above it."""
+    blk0 = assembly.blocks[0]
+    weight = sum(b.m for b in assembly.blocks) * G + assembly.top_load
+    proxy = Block(
+        b=blk0.b,
+        h=blk0.h,
+        length=blk0.length,
+        rho=weight / (G * blk0.b * blk0.h * blk0.length),
+        E=blk0.E,
+        nu=blk0.nu,
+    )
+    s0 = initial_state(dem_params(proxy, joint=joint, phi_deg=45.0), theta0)
+    theta0 = jnp.asarray(theta0, float)
+    c, s = s0.c, s0.s
+    xs, ys = [s0.x + p.x0[0]], [s0.y]
+    load = weight
+    for k in range(1, p.n):
+        load = load - p.m[k - 1] * G
+        sink = load / (p.kn_line[k] * (p.hi[k] - p.lo[k]))
+        du = p.x0[k] - p.x0[k - 1]
+        dv = 0.5 * p.h[k - 1] + 0.5 * p.h[k] - sink
+        xs.append(xs[-1] + du * c + dv * s)
+        ys.append(ys[-1] - du * s + dv * c)
+    zero = jnp.zeros(())
+    n_fs = 1 if joint.face else joint.n_sub
+    n = p.n
+    return AssemblyState(
+        x=tuple(xs),
+        y=tuple(ys),
+        c=(c,) * n,
+        s=(s,) * n,
+        vx=(zero,) * n,
+        vy=(zero,) * n,
+        w=(zero,) * n,
+        theta=(theta0,) * n,
+        theta_max=(jnp.abs(theta0),) * n,
+        fs=tuple((zero,) * n_fs for _ in range(n)),
+    )
+
+
+# ----------------------------------------------------------------------------- driver
+
+
+@eqx.filter_jit
+def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int, save, throw):
+    ag_next = jnp.concatenate([ag[1:], ag[-1:]])
+    agv_next = jnp.concatenate([ag_v[1:], ag_v[-1:]])
+    w_max = omega_max(p)
+    unstable = dt > 2.0 / w_max * (1.0 + 1e-9)
+    positive = jnp.concatenate([p.m, p.I_c, p.b, p.h, p.kn_line, p.hi - p.lo, p.tan_phi[None]])
+    bad_input = ~(
+        jnp.all(jnp.isfinite(positive))
+        & jnp.all(positive > 0)
+        & jnp.isfinite(p.beta)
+        & (p.beta >= 0)
+        & jnp.isfinite(p.gap)
+        & (p.gap >= 0)
+        & jnp.isfinite(p.top_load)
+        & jnp.all(jnp.isfinite(ag))
+        & jnp.all(jnp.isfinite(ag_v))
+    )
+
+    def outer(carry, xs):
+        st, overturned, status = carry
+        a0, a1, v0, v1 = xs
+        da, dv = (a1 - a0) / n_in, (v1 - v0) / n_in
+        zero = jnp.zeros_like(a0)
+
+        # one scan over the n_in substeps (one copy of the step in the program); the
+        # accelerations of the first substep, at the sample time, travel in the carry
+        def inner(c, _):
+            s_, j, first = c
+            s_, acc = _step(p, s_, a0 + j * da, v0 + j * dv, dt)
+            # scalars, not a stacked vector: XLA:CPU would build a vector element by element,
+            # each element's fusion recomputing the step
+            flat = [v for row in acc for v in row]
+            first = tuple(jnp.where(j == 0.0, v, f) for v, f in zip(flat, first))
+            return (s_, j + 1.0, first), None
+
+        first0 = tuple(zero for _ in range(3 * p.n))
+        (new, _, first), _ = jax.lax.scan(inner, (st, zero, first0), length=n_in)
+        vel = [
+            (
+                st.vx[k] + 0.5 * dt * first[3 * k],
+                st.vy[k] + 0.5 * dt * first[3 * k + 1],
+                st.w[k] + 0.5 * dt * first[3 * k + 2],
+            )
+            for k in range(p.n)
+        ]
+        out = {
+            "theta": jnp.stack(st.theta, axis=-1),
+            "theta_dot": jnp.stack([v[2] for v in vel], axis=-1),
+            "x": jnp.stack(st.x, axis=-1) - p.x0,
+            "y": jnp.stack(st.y, axis=-1),
+        }
+        if "energy" in save:
+            out["energy"] = _energy(p, st, vel)
+        over = overturned | _collapsed(p, new)
+        leaves = jax.tree_util.tree_leaves(new)
+        bad = ~jnp.all(jnp.stack([jnp.all(jnp.isfinite(v)) for v in leaves]))
+        status = jnp.where(
+            status != STATUS_OK,
+            status,
+            jnp.where(unstable, STATUS_UNSTABLE, jnp.where(bad, STATUS_NONFINITE, STATUS_OK)),
+        )
+        keep = overturned | (status != STATUS_OK)
+        new = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b), st, new)
+        return (new, over, status), out
+
+    outer = jax.checkpoint(outer, prevent_cse=False)
+    status0 = jnp.where(bad_input, STATUS_BAD_INPUT, STATUS_OK)
+    (st, overturned, status), out = jax.lax.scan(
+        outer, (st0, jnp.zeros((), bool), status0), (ag, ag_next, ag_v, agv_next)
+    )
+    if throw:
+        for code in (STATUS_BAD_INPUT, STATUS_UNSTABLE, STATUS_NONFINITE):
+            msg = (
+                f"rockjax.simulate_assembly: {STATUS_MESSAGES[code]}. "
+                "Pass throw=False to get a per-run status instead."
+            )
+            out["theta"] = eqx.error_if(out["theta"], status == code, msg)
+    return AssemblyResponse(
+        t=jnp.arange(ag.shape[0]) * dt_out,
+        theta=out["theta"],
+        theta_dot=out["theta_dot"],
+        x=out["x"],
+        y=out["y"],
+        overturned=overturned,
+        status=status,
+        theta_max=jnp.stack(st.theta_max),
+        eta=p.eta,
+        energy=out.get("energy"),
+        dt=jnp.asarray(dt, float),
+    )
+
+
+def simulate_assembly(
+    assembly: Assembly,
+    motion: GroundMotion | None = None,
+    *,
+    beta=0.0,
+    theta0=0.0,
+    duration: float | None = None,
+    dt: float | None = None,
+    accuracy: float | None = None,
+    joint: Joint = Joint(),
+    phi_deg=50.0,
+    save_dt: float | None = None,
+    save: tuple[str, ...] = (),
+    beta_max=None,
+    throw: bool = True,
+) -> AssemblyResponse:
+    """Simulate an assembly of rigid blocks on penalty joints under a ground motion and/or a
+    free release (the DEM of :func:`rockjax.simulate_dem`, block by block).
+
+    Args:
+        assembly: The :class:`rockjax.assembly.Assembly`.
+        motion: Ground motion (the supports, ground and top restraint, move with it); ``None``
+            for free motion (then ``duration`` is required).
+        beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1), all joints.
+        theta0: Initial rigid tilt of the whole stack about block 0's pivot corner [rad],
+            released from rest (``top="free"`` only).
+        duration: Length of the run [s]; default the record's (longer appends zeros).
+        dt: Time step [s]; default :func:`stable_dt_assembly` (the accuracy rule of
+            :func:`rockjax.stable_dt` on the stiffest mode of the whole assembly). The step
+            used is the largest divisor of the output step not above ``dt``.
+        accuracy: ``omega_max dt (1 + zeta)`` of the default step [-] (ignored with ``dt``).
+        joint: The joint of every interface, :class:`rockjax.Joint` (default the integrated
+            face law; ``Joint(n_sub=2)`` the paper's corner sub-contacts).
+        phi_deg: Friction angle of every interface [deg] (default 50).
+        save_dt: Output interval for free motion [s] (default 0.002); with a record, its ``dt``.
+        save: Extra outputs: ``("energy",)`` (total mechanical energy [J]).
+        beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
+        throw: Raise (also inside ``jit``) if the run fails; if False, report ``status``.
+
+    Returns:
+        An :class:`AssemblyResponse` with per-block ``theta``, ``x``, ``y`` (time x block).
+
+    Raises:
+        ValueError: on invalid input, with the value, its unit and the fix.
+    """
+    if isinstance(save, str):
+        raise ValueError(
+            f"save must be a tuple of output names, e.g. save=({save!r},); got save={save!r}."
+        )
+    for key in save:
+        check_choice("save entry", key, SAVE_OPTIONS)
+    p = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg)
+    _check_theta0(theta0, assembly)
+    ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
+    accuracy = _check_accuracy(accuracy, joint)
+    limit, dt_default = _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, phi_deg)
+    if dt is None:
+        dt_target = dt_default
+    else:
+        check_positive("dt", dt, "s", "Or leave dt=None (chosen for accuracy).", scalar=True)
+        if limit is not None and dt > limit * (1 + 1e-9):
+            raise ValueError(
+                f"dt={dt:.4g} s exceeds the explicit stability limit {limit:.4g} s of this "
+                f"assembly. Use dt <= {limit:.4g} s or leave dt=None (default "
+                f"{dt_default:.4g} s, chosen for accuracy)."
+            )
+        dt_target = float(dt)
+    n_in = max(1, math.ceil(dt_out / dt_target - 1e-9))
+    step = dt_out / n_in
+    st0 = initial_assembly_state(assembly, p, theta0, joint)
+    # the steps as arrays: traced, so a new step does not recompile (n_in is static)
+    return _run(p, st0, ag, ag_v, np.asarray(step), np.asarray(dt_out), n_in, tuple(save), throw)
+
+
+def _check_theta0(theta0, assembly: Assembly):
+    check_scalar("theta0", theta0, "rad", "e.g. theta0=0.01.")
+    th = concrete(theta0)
+    if th is None:
+        return
+    if th != 0.0 and assembly.top == "restrained":
+        raise ValueError(
+            f"theta0={float(th):.4g} rad: a rigid tilt of the whole stack is only possible with "
+            "top='free' (the top restraint holds the top); use theta0=0."
+        )
+    blocks = assembly.blocks
+    vals = [concrete(b.b) for b in blocks] + [concrete(b.h) for b in blocks]
+    if any(v is None for v in vals):
+        return
+    # the stack's own overturning angle about block 0's corner (aligned stack)
+    heights = np.cumsum([0.0] + [float(b.h) for b in blocks])
+    masses = np.array([float(concrete(b.m)) for b in blocks])
+    y_g = np.sum(masses * 0.5 * (heights[:-1] + heights[1:])) / masses.sum()
+    eta_stack = math.atan2(0.5 * float(blocks[0].b), y_g)
+    if not np.isfinite(th) or abs(th) >= eta_stack:
+        raise ValueError(
+            f"theta0={float(th):.4g} rad must satisfy |theta0| < {eta_stack:.4g} rad, the "
+            "overturning angle of the whole stack about its base corner. Try half of it."
+        )
+
+
+def _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, phi_deg):
+    if beta_max is not None:
+        try:
+            with jax.ensure_compile_time_eval():
+                p_max = assembly_params(assembly, beta_max, joint=joint, phi_deg=45.0)
+                return tuple(map(float, _steps_jit(p_max, accuracy)))
+        except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
+            raise ValueError(
+                "beta_max cannot size the time step when the assembly itself is traced; pass "
+                "dt=stable_dt_assembly(assembly, beta_max) computed outside the transform."
+            ) from None
+    try:
+        return tuple(map(float, _steps_jit(p, accuracy)))
+    except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
+        if dt is not None:
+            return None, None
+        raise ValueError(
+            "simulate_assembly was called with traced inputs (inside jit/vmap/grad), so the "
+            "time step cannot be chosen automatically. Pass dt=stable_dt_assembly(assembly, "
+            "beta_max) computed outside the transform, or beta_max=<largest beta> [s]."
+        ) from None
+
+
+def _prepare_motion(motion, duration, save_dt):
+    if motion is None:
+        if duration is None:
+            raise ValueError(
+                "Free motion (motion=None) needs duration=<seconds>, e.g. duration=5.0."
+            )
+        dt_out = DEFAULT_SAVE_DT if save_dt is None else float(save_dt)
+        check_positive("save_dt", dt_out, "s", f"e.g. save_dt={DEFAULT_SAVE_DT}.")
+        check_samples(duration, dt_out, dt_name="save_dt")
+        motion = GroundMotion.zeros(duration, dt_out)
+    elif not isinstance(motion, GroundMotion):
+        raise ValueError(
+            f"motion must be a rockjax.GroundMotion (or None for free motion); got "
+            f"{type(motion).__name__}. Wrap an acceleration array as "
+            "rj.GroundMotion(ag=<m/s^2>, dt=<s>)."
+        )
+    motion.check_finite()
+    dt_out = motion.dt
+    xp = np if concrete(motion.ag) is not None else jnp
+    ag = xp.asarray(motion.ag, float)
+    ag_v = xp.zeros_like(ag) if motion.ag_v is None else xp.asarray(motion.ag_v, float)
+    if duration is not None:
+        n = check_samples(duration, dt_out, dt_name="the record's dt")
+        if n < 2:
+            raise ValueError(f"duration={duration} s is shorter than two samples of {dt_out} s.")
+        pad = max(0, n - ag.shape[0])
+        ag = xp.pad(ag, (0, pad))[:n]
+        ag_v = xp.pad(ag_v, (0, pad))[:n]
+    return ag, ag_v, dt_out

@@ -1,0 +1,372 @@
+"""Tests of rockjax.assembly (geometry, limit analysis) and rockjax.multiblock (the
+multi-block DEM), each against an independent reference."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import rockjax as rj
+from rockjax.assembly import Assembly, collapse_multiplier
+from rockjax.constants import G
+from rockjax.multiblock import simulate_assembly, stable_dt_assembly
+from rockjax.response import find_peaks
+
+# Tolerances, each with its reason.
+EQUAL_RTOL = 1e-10  # the one-block assembly is simulate_dem's scheme: round-off only (~1e-13)
+GLUED_PEAK_TOL = 2e-3  # [eta] glued pair vs tall block: bed joint compliance (measured 2.3e-4)
+GLUED_OPEN_TOL = 1e-3  # [eta] relative rotation of the glued pair (measured 1.3e-4)
+ENERGY_RTOL = 5e-3  # central differences conserve a shadow energy; corners barely slip
+MIN_ORDER = 1.6  # centred dashpots, exact two-body block solve: second order
+RIGID_TOL = 0.2  # [theta0] DEM at E = 1.8e11 Pa vs the rigid model (compliance; measured 0.14)
+UPLIFT_LAG = 0.1  # a ramp of 2 lambda in 4 s lags the static onset (measured 2.5-6.3 %)
+VMAP_RTOL = 1e-9  # vmap vs a Python loop: the same arithmetic, fused differently (1e-12)
+PUSHOVER_RTOL = 2e-3  # DEM pushover peak below the rigid limit (corner joint compliance)
+FD_RTOL = 1e-3  # central differences, step 1e-6 relative, of a piecewise-smooth contact response
+
+ONE = rj.Block(b=0.2, h=1.5)
+CORNERS = rj.Joint(n_sub=2)
+PULSE = rj.GroundMotion.sine_cycle(pga=-3.0, period=0.5, dt=0.005, duration=2.0)
+
+
+def _peaks(t, y, n):
+    """The first ``n`` rocking peaks of ``y`` after the release (|y| maxima at least 0.3 s
+    apart), signed."""
+    idx = []
+    for sign in (1.0, -1.0):
+        tp, _ = find_peaks(t, np.maximum(sign * y, 0.0), min_separation=0.3)
+        idx += [int(np.argmin(np.abs(t - v))) for v in tp]
+    # (skip the release: a settling wobble at t ~ 0 is no rocking peak)
+    idx = sorted(i for i in idx if abs(y[i]) > 0.1 * np.max(np.abs(y)) and t[i] > 0.1)
+    return y[np.array(idx[:n], dtype=int)]
+
+
+# ----------------------------------------------------------------------------- one block
+
+
+@pytest.mark.parametrize(
+    "joint",
+    [rj.Joint(), pytest.param(rj.Joint(n_sub=3, dashpot="clipped"), marks=pytest.mark.slow)],
+    ids=["face", "n3-clipped"],
+)
+def test_one_block_equals_simulate_dem(joint):
+    """Reference: rj.simulate_dem on the same block, joint and step (the one-block assembly is
+    the same model: equal to round-off)."""
+    beta = 0.5 * float(rj.beta_dejong(ONE))
+    dt = rj.stable_dt(ONE, beta, joint=joint)
+    kw = dict(beta=beta, theta0=0.3 * float(ONE.eta), dt=dt, joint=joint)
+    ref = rj.simulate_dem(ONE, PULSE, **kw)
+    r = simulate_assembly(Assembly.stack([ONE]), PULSE, **kw)
+    assert r.theta.dtype == jnp.float64 and r.theta.shape == (PULSE.n, 1)
+    scale = float(jnp.max(jnp.abs(ref.theta)))
+    assert scale > 0.2 * float(ONE.eta)  # it rocked
+    assert float(jnp.max(jnp.abs(r.theta[:, 0] - ref.theta))) < EQUAL_RTOL * scale
+    for key in ("x", "y"):
+        err = float(jnp.max(jnp.abs(getattr(r, key)[:, 0] - ref.extras[key])))
+        assert err < EQUAL_RTOL * float(ONE.h), key
+    assert bool(r.overturned) == bool(ref.overturned)
+    assert abs(float(r.theta_max[0]) - float(ref.theta_max)) < EQUAL_RTOL * scale
+
+
+def test_default_step_is_simulate_dems():
+    """Reference: rj.stable_dt (the same accuracy rule on the same stiffness matrix)."""
+    for joint in (rj.Joint(), rj.Joint(n_sub=2)):
+        a = stable_dt_assembly(Assembly.stack([ONE]), 2e-3, joint=joint)
+        assert a == pytest.approx(rj.stable_dt(ONE, 2e-3, joint=joint), rel=1e-12)
+
+
+# ----------------------------------------------------------------------------- two blocks
+
+
+def test_glued_pair_rocks_like_one_tall_block():
+    """Reference: rj.simulate_dem of the tall block (0.2 x 1.5 m). The pair 2 x (0.2 x 0.75 m)
+    has the same ground joint (E of the bottom block halved, so E/h is the tall block's), a
+    bed joint 10x stiffer and friction 80 deg: it stays closed, and the first three rocking
+    peaks (through two impacts) match to GLUED_PEAK_TOL eta. Damping (0.25 beta_DeJong)
+    settles the bed joint's own vibration: at beta = 0 it rings after each impact and takes
+    ~2.5 % of the amplitude per impact, which the single block has not."""
+    tall = ONE
+    pair = Assembly.stack([rj.Block(b=0.2, h=0.75, E=0.9e9), rj.Block(b=0.2, h=0.75, E=1.8e10)])
+    beta = 0.25 * float(rj.beta_dejong(tall))
+    kw = dict(beta=beta, theta0=0.5 * float(tall.eta), duration=3.0, phi_deg=80.0)
+    ref = rj.simulate_dem(tall, **kw)
+    r = simulate_assembly(pair, **kw)
+    th = np.asarray(r.theta)
+    eta = float(tall.eta)
+    assert np.max(np.abs(th[:, 1] - th[:, 0])) < GLUED_OPEN_TOL * eta  # the bed joint stays shut
+    t = np.asarray(r.t)
+    p_ref, p = _peaks(t, np.asarray(ref.theta), 3), _peaks(t, th[:, 0], 3)
+    assert len(p_ref) == 3 and len(p) == 3
+    assert np.max(np.abs(p - p_ref)) < GLUED_PEAK_TOL * eta, (p / eta, p_ref / eta)
+
+
+def test_energy_conserved_two_block_stack():
+    """Reference: conservation of energy (kinetic + gravity + overburden + springs) at beta = 0
+    over 10 s of free rocking of a two-block stack released tilted; corner contacts and an
+    overburden of 20 kN/m keep the bed joint closed, friction 80 deg prevents slip."""
+    joint = rj.Joint(n_sub=2)
+    wall = Assembly.stack([rj.Block(b=0.25, h=1.5)] * 2, overburden=2e4)
+    kw = dict(phi_deg=80.0, save=("energy",), joint=joint)
+    rest = simulate_assembly(wall, duration=0.1, **kw)
+    w = float(wall.mass * G)
+    y_g = (w * 1.5 + 2e4 * 3.0) / (w + 2e4)
+    eta = math.atan(0.125 / y_g)
+    r = simulate_assembly(wall, theta0=0.5 * eta, duration=10.0, **kw)
+    e = np.asarray(r.energy)
+    rel = (e - e[0]) / (e[0] - float(rest.energy[-1]))
+    assert np.max(np.abs(rel)) < ENERGY_RTOL, np.max(np.abs(rel))
+    assert float(jnp.min(r.theta)) < -0.4 * eta  # it rocked through impacts
+    assert not bool(r.overturned) and int(r.status) == 0
+
+
+def _order(h, err):
+    return np.polyfit(np.log(h), np.log(np.abs(err)), 1)[0]
+
+
+@pytest.mark.slow
+def test_convergence_order_in_dt():
+    """Reference: the observed order of the scheme, from a log-log fit of the error at
+    dt0, dt0/2, dt0/4 against dt0/16 (a damped two-block stack under a pulse, before any
+    joint opens to the onset band's non-smoothness)."""
+    wall = Assembly.stack([rj.Block(b=0.3, h=1.0), rj.Block(b=0.2, h=1.5)])
+    beta = 2e-3
+    motion = rj.GroundMotion.sine_cycle(pga=-1.0, period=0.4, dt=0.01, duration=0.2)
+    dt0 = stable_dt_assembly(wall, beta)
+    runs = {}
+    for k in (1, 2, 4, 16):
+        r = simulate_assembly(wall, motion, beta=beta, dt=dt0 / k)
+        runs[k] = np.asarray(r.theta[-1])
+    err = [np.max(np.abs(runs[k] - runs[16])) for k in (1, 2, 4)]
+    order = _order(np.array([1.0, 0.5, 0.25]), np.array(err))
+    assert order > MIN_ORDER, (order, err)
+
+
+def _rigid_two_block(b1, h1, b2, h2, theta0, side):
+    """Psycharis-type rigid model: block 1 rocks about its +x base corner, block 2 about its
+    bottom corner on side ``side`` (+1/-1) on block 1's top; Lagrange's equations in
+    (theta1, theta2), clockwise positive, integrated by scipy up to block 1's first impact."""
+    rho = 1800.0
+    m1, m2 = rho * b1 * h1, rho * b2 * h2
+    i1, i2 = m1 * (b1**2 + h1**2) / 12, m2 * (b2**2 + h2**2) / 12
+    r1 = np.array([-b1 / 2, h1 / 2])
+    rb = np.array([side * b2 / 2 - b1 / 2, h1])
+    r2 = np.array([-side * b2 / 2, h2 / 2])
+
+    def rot(t, r):
+        c, s = np.cos(t), np.sin(t)
+        return np.array([r[0] * c + r[1] * s, -r[0] * s + r[1] * c])
+
+    def drot(t, r):
+        c, s = np.cos(t), np.sin(t)
+        return np.array([-r[0] * s + r[1] * c, -r[0] * c - r[1] * s])
+
+    def rhs(t, y):
+        t1, t2, w1, w2 = y
+        j1 = np.stack([drot(t1, r1), np.zeros(2)], axis=1)
+        j2 = np.stack([drot(t1, rb), drot(t2, r2)], axis=1)
+        a1 = -rot(t1, r1) * w1**2
+        a2 = -rot(t1, rb) * w1**2 - rot(t2, r2) * w2**2
+        mass = m1 * j1.T @ j1 + m2 * j2.T @ j2 + np.diag([i1, i2])
+        force = -(m1 * j1.T @ a1 + m2 * j2.T @ a2) - G * (m1 * j1[1] + m2 * j2[1])
+        acc = np.linalg.solve(mass, force)
+        return [w1, w2, acc[0], acc[1]]
+
+    def impact(t, y):
+        return y[0]
+
+    impact.terminal, impact.direction = True, -1
+    y0 = [theta0, theta0, 0.0, 0.0]
+    phi_dd = rhs(0.0, y0)[3] - rhs(0.0, y0)[2]
+    sol = solve_ivp(rhs, (0, 3), y0, events=impact, rtol=1e-10, atol=1e-12, dense_output=True)
+    return sol, phi_dd
+
+
+@pytest.mark.slow
+def test_first_phase_matches_rigid_two_block_model():
+    """Reference: the rigid two-block model (Psycharis type, integrated in the test with
+    scipy): a slender 0.2 x 1.5 m block on a squat 0.3 x 1.0 m one, released as a rigid tilt,
+    opens its bed joint (the top block keeps leaning while the bottom one falls back). Up to
+    90 % of the time to the first impact the DEM with stiff joints (E = 1.8e11 Pa) follows
+    both rotations to RIGID_TOL theta0, and closer than at E = 1.8e10 Pa (convergence to the
+    rigid limit as the joints stiffen)."""
+    b1, h1, b2, h2 = 0.3, 1.0, 0.2, 1.5
+    theta0 = 0.6 * math.atan(b1 / (h1 + h2))
+    sol, phi_dd = _rigid_two_block(b1, h1, b2, h2, theta0, side=1)
+    assert phi_dd > 0  # the assumed mode (bed joint opening at the -x side) is the right one
+    t_end = 0.9 * float(sol.t_events[0][0])
+    errs = []
+    for e_mod in (1.8e10, 1.8e11):
+        wall = Assembly.stack([rj.Block(b=b1, h=h1, E=e_mod), rj.Block(b=b2, h=h2, E=e_mod)])
+        r = simulate_assembly(wall, theta0=theta0, duration=t_end, phi_deg=80.0, save_dt=0.004)
+        ref = sol.sol(np.asarray(r.t))[:2].T
+        errs.append(np.max(np.abs(np.asarray(r.theta) - ref)) / theta0)
+    assert errs[1] < RIGID_TOL, errs
+    assert errs[1] < 0.7 * errs[0], errs
+    # the relative rotation really grows: the rigid model's mode, not the stuck stack
+    assert sol.sol(t_end)[1] - sol.sol(t_end)[0] > 0.5 * theta0
+
+
+# ----------------------------------------------------------------------------- transforms
+
+
+def test_vmap_over_records_equals_loop():
+    """Reference: a Python loop over the records (the same arithmetic)."""
+    wall = Assembly.stack([rj.Block(b=0.2, h=1.0)] * 2, top="restrained", overburden=5e3)
+    dt = stable_dt_assembly(wall, 1e-3, joint=CORNERS)
+    ags = jnp.stack(
+        [
+            rj.GroundMotion.sine_cycle(pga=a, period=0.3, dt=0.01, duration=0.5).ag
+            for a in (-4.0, 6.0)
+        ]
+    )
+
+    def run(ag):
+        motion = rj.GroundMotion(ag=ag, dt=0.01)
+        return simulate_assembly(wall, motion, beta=1e-3, dt=dt, joint=CORNERS).theta
+
+    batch = jax.vmap(run)(ags)
+    loop = jnp.stack([run(a) for a in ags])
+    assert batch.shape == (2, 51, 2)
+    assert float(jnp.max(jnp.abs(batch - loop))) <= VMAP_RTOL * float(jnp.max(jnp.abs(loop)))
+    assert float(jnp.max(jnp.abs(loop))) > 1e-4  # it moved
+
+
+@pytest.mark.slow
+def test_grad_wrt_beta_matches_finite_differences():
+    """Reference: central finite differences of the same function."""
+    wall = Assembly.stack([rj.Block(b=0.2, h=1.0)] * 2)
+    # one step per sample (n_in = 1): the smallest reverse-mode program
+    dt = 1e-4
+    motion = rj.GroundMotion.sine_cycle(pga=-5.0, period=0.3, dt=dt, duration=0.5)
+
+    def peak(beta):
+        r = simulate_assembly(wall, motion, beta=beta, dt=dt, joint=CORNERS)
+        return jnp.sum(r.theta[:, 1] ** 2)
+
+    beta = 2e-3
+    g = jax.grad(peak)(beta)
+    h = 1e-6 * beta
+    fd = (peak(beta + h) - peak(beta - h)) / (2 * h)
+    assert np.isfinite(float(g))
+    assert float(g) == pytest.approx(float(fd), rel=FD_RTOL)
+
+
+# ----------------------------------------------------------------------------- collapse
+
+
+def test_overturning_is_flagged_and_frozen():
+    """A strong pulse overturns a free two-block stack: flagged, the state frozen, no NaN."""
+    wall = Assembly.stack([rj.Block(b=0.2, h=1.0)] * 2)
+    motion = rj.GroundMotion.sine_cycle(pga=-20.0, period=1.0, dt=0.01, duration=2.0)
+    r = simulate_assembly(wall, motion, beta=1e-3, throw=False)
+    assert bool(r.overturned) and int(r.status) == 0
+    assert np.all(np.isfinite(np.asarray(r.theta)))
+    assert np.all(np.asarray(r.theta[-1]) == np.asarray(r.theta[-2]))
+
+
+@pytest.mark.slow
+def test_top_restraint_holds_the_top():
+    """The top face centre stays within the restraint's gap (plus the penalty's compliance)."""
+    gap = 2e-3
+    wall = Assembly.stack([rj.Block(b=0.2, h=1.0)] * 2, top="restrained", gap=gap, overburden=5e3)
+    motion = rj.GroundMotion.sine_cycle(pga=-8.0, period=0.5, dt=0.01, duration=1.0)
+    r = simulate_assembly(wall, motion, beta=1e-3)
+    top = np.asarray(r.x[:, 1] + 0.5 * 1.0 * np.sin(r.theta[:, 1]))
+    assert np.max(np.abs(top)) < gap + 1e-3
+    assert float(jnp.max(jnp.abs(r.theta[:, 0]))) > 1e-3  # the wall really rocked
+
+
+# ----------------------------------------------------------------------------- limit analysis
+
+
+def test_collapse_multiplier_closed_forms():
+    """Reference: the static thresholds in closed form: one block tan(eta) = b/h (Housner);
+    an aligned stack of n equal blocks b/(n h) (the tall block); the top block (b/h)(1 + P/W);
+    the restrained two-block hinge (b/h)(2 + 1.5 P/W)."""
+    b, h = 0.2, 1.0
+    blk = rj.Block(b=b, h=h)
+    w = float(blk.m * G)
+    assert float(collapse_multiplier(Assembly.stack([blk]))) == pytest.approx(b / h)
+    three = Assembly.stack([blk] * 3)
+    assert float(collapse_multiplier(three, "stack")) == pytest.approx(b / (3 * h))
+    p = 4e3
+    loaded = Assembly.stack([blk] * 2, overburden=p)
+    assert float(collapse_multiplier(loaded, "top")) == pytest.approx(b / h * (1 + p / w))
+    wall = Assembly.stack([blk] * 2, top="restrained", overburden=p)
+    assert float(collapse_multiplier(wall, "hinge")) == pytest.approx(b / h * (2 + 1.5 * p / w))
+
+
+def _uplift_multiplier(wall, lam_max, duration=4.0):
+    """Ground acceleration (in g) at which the stack starts rocking under a slow ramp toward
+    +x (a DEM pushover on corner contacts, whose uplift is sharp): the first sample with a
+    block rotated beyond 2e-3 eta (twice the elastic rotation at the onset)."""
+    dt = 0.002
+    t = np.arange(0.0, duration + dt / 2, dt)
+    ag = -lam_max * G * t / duration  # inertia toward +x
+    r = simulate_assembly(wall, rj.GroundMotion(ag=ag, dt=dt), beta=2e-3, joint=rj.Joint(n_sub=2))
+    moved = np.max(np.abs(np.asarray(r.theta)), axis=1) > 2e-3 * float(jnp.min(r.eta))
+    return -ag[np.argmax(moved)] / G
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["stack", "top", "hinge"])
+def test_collapse_multiplier_matches_dem_ramp(case):
+    """Reference: a slow ramp of ground acceleration in the DEM (quasi-static pushover): the
+    mechanism starts at the multiplier, not before (statics) and within UPLIFT_LAG after
+    (the ramp's inertial lag)."""
+    blk = rj.Block(b=0.2, h=1.0)
+    if case == "stack":
+        wall = Assembly.stack([blk, blk])
+    elif case == "top":  # a narrow top block on a wide one: the top mechanism comes first
+        wall = Assembly.stack([rj.Block(b=0.4, h=1.0), rj.Block(b=0.15, h=1.0)])
+    else:
+        wall = Assembly.stack([blk, blk], top="restrained", overburden=2e3)
+    lam = float(collapse_multiplier(wall, case))
+    ratio = _uplift_multiplier(wall, 2.0 * lam) / lam
+    assert 0.99 < ratio < 1.0 + UPLIFT_LAG, ratio
+
+
+def test_collapse_multiplier_matches_pushover_if_available():
+    """Reference: the single-block DEM pushover of rockjax.pushover (an independent model and
+    derivation), when that module exists: its rigid limit equals the one-block "stack"
+    multiplier with overburden, and the peak of its pushover on corner contacts (whose uplift
+    is sharp) lies within PUSHOVER_RTOL below it (measured 1.5e-4)."""
+    pushover = pytest.importorskip("rockjax.pushover")
+    blk = rj.Block(b=0.2, h=1.5)
+    p = 3e3
+    lam = float(collapse_multiplier(Assembly.stack([blk], overburden=p), "stack"))
+    cap = pushover.pushover(blk, overburden=p, joint=CORNERS)
+    assert float(cap.lambda_rigid) == pytest.approx(lam, rel=1e-12)
+    peak = float(jnp.max(cap.load_multiplier))
+    assert lam * (1.0 - PUSHOVER_RTOL) < peak < lam * (1.0 + PUSHOVER_RTOL), (peak, lam)
+
+
+# ----------------------------------------------------------------------------- bad input
+
+
+def test_bad_input_is_refused_with_a_fix():
+    blk = rj.Block(b=0.2, h=1.0)
+    with pytest.raises(ValueError, match="top must be one of"):
+        Assembly.stack([blk], top="pinned")
+    with pytest.raises(ValueError, match="overburden"):
+        Assembly.stack([blk], overburden=-1.0)
+    with pytest.raises(ValueError, match="do not overlap"):
+        Assembly.stack([blk, blk], x_offset=(0.0, 0.5))
+    with pytest.raises(ValueError, match="non-empty"):
+        Assembly.stack([])
+    with pytest.raises(ValueError, match="length"):
+        Assembly.stack([blk, rj.Block(b=0.2, h=1.0, length=2.0)])
+    wall = Assembly.stack([blk, blk], top="restrained")
+    with pytest.raises(ValueError, match="top='free'"):
+        simulate_assembly(wall, theta0=0.01, duration=0.1)
+    with pytest.raises(ValueError, match="overturning angle"):
+        simulate_assembly(Assembly.stack([blk, blk]), theta0=0.2, duration=0.1)
+    with pytest.raises(ValueError, match="stability limit"):
+        simulate_assembly(Assembly.stack([blk]), duration=0.1, dt=0.01)
+    with pytest.raises(ValueError, match="hinge"):
+        collapse_multiplier(wall, "stack")
+    with pytest.raises(ValueError, match="mechanism"):
+        collapse_multiplier(wall, "sideways")
