@@ -56,6 +56,7 @@ from jaxtyping import ArrayLike, Float
 from . import _progress
 from ._checks import check_choice, check_nonnegative, check_positive, check_scalar, check_scales
 from ._types import ScalarLike
+from .assembly import Assembly
 from .block import Block
 from .building import ShearBuilding
 from .constants import G
@@ -63,6 +64,7 @@ from .contact import Joint
 from .dem import simulate_dem, stable_dt
 from .housner import P_DT_TARGET, simulate_housner
 from .motion import GroundMotion
+from .multiblock import simulate_assembly, stable_dt_assembly
 from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
@@ -76,7 +78,7 @@ DEFAULT_SCALES.flags.writeable = False
 
 
 def ida(
-    block: Block,
+    block: Block | Assembly,
     records: Sequence[GroundMotion],
     scales: Float[ArrayLike, " scale"] | Sequence[float] = DEFAULT_SCALES,
     *,
@@ -98,7 +100,12 @@ def ida(
     """Incremental dynamic analysis of one block: every record at every scale factor.
 
     Args:
-        block: The block (scalar geometry and material).
+        block: The block (scalar geometry and material), or an :class:`rockjax.Assembly` (a
+            wall of several blocks; ``model="dem"``, its own supports: ``mode``, ``gap`` and
+            ``wall_motion`` do not apply). For an assembly ``max_d_over_b`` is the peak
+            horizontal displacement of the top block's top centre over the bottom block's
+            ``b`` (at the record samples), ``max_theta_over_eta`` the largest over the blocks,
+            ``collapse`` the assembly's collapse rule (:func:`rockjax.simulate_assembly`).
         records: Ground motions, with distinct names. They may differ in length (zero-padded to
             the longest, plus ``tail``) and in ``dt`` (each runs on its own).
         scales: Scale factors [-] applied to each record, strictly increasing, finite, >= 0.
@@ -180,7 +187,7 @@ def ida(
 
 
 def run_config(
-    block: Block,
+    block: Block | Assembly,
     *,
     model: str,
     mode: str,
@@ -201,7 +208,15 @@ def run_config(
     """
     check_choice("model", model, MODELS)
     check_choice("mode", mode, MODES)
-    block = _scalar_block(block)
+    if isinstance(block, Assembly):
+        if model != "dem" or mode != "two_sided" or float(gap) != 0.0 or wall_motion is not None:
+            raise ValueError(
+                "an Assembly runs with model='dem' only, with its own supports (its top "
+                "restraint and gap are part of the Assembly): leave mode, gap and wall_motion "
+                f"at their defaults; got model={model!r}, mode={mode!r}, gap={gap}."
+            )
+    else:
+        block = _scalar_block(block)
     if model == "three_branch":
         if not isinstance(law, ThreeBranchLaw):
             raise ValueError(
@@ -245,7 +260,10 @@ def run_config(
             raise TypeError(
                 f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
             )
-        dt_bound = stable_dt(block, beta, mode=mode, gap=gap, joint=joint)
+        if isinstance(block, Assembly):
+            dt_bound = stable_dt_assembly(block, beta, joint=joint)
+        else:
+            dt_bound = stable_dt(block, beta, mode=mode, gap=gap, joint=joint)
         e_used = None
     else:
         if beta is not None:
@@ -533,7 +551,7 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
         "model": config["model"],
         "mode": config["mode"],
         "im": im.name,
-        **{field: float(getattr(block, field)) for field in Block.FIELDS},
+        **_block_attrs(block),
         "gap": config["gap"],
         "tail": plan.tail,
         "t_end": plan.t_end,
@@ -557,6 +575,22 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
 
 
 # ----------------------------------------------------------------------------- helpers
+
+
+def _block_attrs(block) -> dict:
+    """The block's fields for the Dataset's attrs (per block, bottom to top, for an assembly)."""
+    if not isinstance(block, Assembly):
+        return {field: float(getattr(block, field)) for field in Block.FIELDS}
+    out = {
+        field: np.array([float(getattr(b, field)) for b in block.blocks]) for field in Block.FIELDS
+    }
+    out.update(
+        n_blocks=len(block.blocks),
+        top=block.top,
+        top_gap=float(block.gap),
+        overburden=float(block.overburden),
+    )
+    return out
 
 
 def _attrs(long_name: str, units: str) -> dict:
@@ -687,6 +721,17 @@ def _run_chunk(
 
     def one(i, s):
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
+        if isinstance(block, Assembly):
+            r = simulate_assembly(block, motion, beta=beta, dt=dt_bound, joint=joint, throw=False)
+            top = block.blocks[-1]
+            d = r.x[:, -1] - block.x_offset[-1] + 0.5 * top.h * jnp.sin(r.theta[:, -1])
+            ok = r.status == STATUS_OK
+            return {
+                "max_d_over_b": jnp.where(ok, jnp.max(jnp.abs(d)) / block.blocks[0].b, jnp.nan),
+                "max_theta_over_eta": jnp.where(ok, jnp.max(r.theta_max / r.eta), jnp.nan),
+                "collapse": r.overturned & ok,
+                "status": r.status.astype(jnp.int32),
+            }
         if model == "dem":
             r = simulate_dem(
                 block,

@@ -410,3 +410,34 @@ def test_wall_motion_reaches_every_run():
 def test_law_and_wall_motion_errors(kwargs, match):
     with pytest.raises(ValueError, match=match):
         rj.ida(rj.Block(b=0.25, h=3.0), _pulses(), [1.0], progress=False, **kwargs)
+
+
+def test_assembly_of_one_block_is_the_block_ida():
+    # One block as an Assembly runs the assembly DEM (equal to simulate_dem to round-off,
+    # tests/test_assembly.py): the IDA's peaks and collapse flags must match the block's.
+    block = rj.Block(b=0.25, h=3.0)
+    beta = float(rj.beta_dejong(block))
+    scales = [0.3, 0.9]
+    one = rj.ida(rj.Assembly.stack([block]), _pulses(), scales, beta=beta, progress=False)
+    ref = rj.ida(block, _pulses(), scales, beta=beta, progress=False)
+    np.testing.assert_allclose(one.max_theta_over_eta, ref.max_theta_over_eta, rtol=1e-8)
+    assert (one.collapse.values == ref.collapse.values).all()
+    assert one.attrs["n_blocks"] == 1
+
+
+def test_assembly_ida_equals_single_runs():
+    wall = rj.Assembly.stack([rj.Block(b=0.23, h=1.5), rj.Block(b=0.23, h=1.5)])
+    beta = float(rj.beta_dejong(rj.Block(b=0.23, h=1.5)))
+    rec = _pulses()[0]
+    ds = rj.ida(wall, [rec], [0.5, 2.0], beta=beta, tail=1.0, progress=False)
+    n = int(round(float(ds.attrs["t_end"]) / rec.dt))
+    dt = rj.stable_dt_assembly(wall, beta)
+    for j, s in enumerate([0.5, 2.0]):
+        ag = np.zeros(n)
+        ag[: rec.ag.shape[0]] = s * np.asarray(rec.ag)
+        r = rj.simulate_assembly(wall, rj.GroundMotion(ag=ag, dt=rec.dt), beta=beta, dt=dt)
+        theta = float(np.max(np.asarray(r.theta_max) / np.asarray(r.eta)))
+        assert float(ds.max_theta_over_eta[0, j]) == pytest.approx(theta, rel=1e-9)
+        assert bool(ds.collapse[0, j]) == bool(r.overturned)
+    with pytest.raises(ValueError, match="Assembly runs with model='dem'"):
+        rj.ida(wall, [rec], [1.0], model="housner", progress=False)
