@@ -108,7 +108,7 @@ from .response import (
     STATUS_UNSTABLE,
     Response,
 )
-from .three_branch import ThreeBranchLaw
+from .three_branch import ThreeBranchFit, ThreeBranchLaw
 
 MODES = ("two_sided", "one_sided")
 
@@ -1058,7 +1058,7 @@ def simulate_housner(
     max_impacts_per_step: int = DEFAULT_MAX_IMPACTS,
     adjoint: diffrax.AbstractAdjoint | None = None,
     throw: bool = True,
-    law: ThreeBranchLaw | None = None,
+    law: ThreeBranchLaw | ThreeBranchFit | None = None,
     wall_motion: Any = None,
 ) -> Response:
     r"""Simulate Housner rocking with impacts (two-sided parapet or one-sided facade).
@@ -1099,7 +1099,8 @@ def simulate_housner(
             unresolved step; if False report it in ``Response.status`` (for batches: a lane
             with an invalid input, e.g. ``e > 1`` or ``|theta0| >= eta``, gets
             ``STATUS_BAD_INPUT`` and NaN histories, and the other lanes run as alone).
-        law: A :class:`rockjax.ThreeBranchLaw` for the restoring moment (docs/three_branch.md):
+        law: A :class:`rockjax.ThreeBranchLaw` (or the :class:`rockjax.ThreeBranchFit` of
+            :func:`rockjax.fit_three_branch`) for the restoring moment (docs/three_branch.md):
             $I_O \ddot\theta = -m g R \cos(\eta - u) [\Lambda(u) + a_g/g]$ on the pivot's side
             ($u = s\theta$), $\Lambda$ the law's load multiplier at the rigid-equivalent
             displacement $x = 1 - \tan(\eta - u)/\tan\eta$; the block overturns past the
@@ -1154,6 +1155,8 @@ def simulate_housner(
     if duration is not None:
         check_positive("duration", duration, "s", "e.g. duration=10.0.", scalar=True)
     _check_theta0(theta0, theta_dot0, block, one_sided)
+    if isinstance(law, ThreeBranchFit):  # rj.fit_three_branch(...) passed as it is
+        law = law.law
     if law is not None and not isinstance(law, ThreeBranchLaw):
         raise ValueError(
             f"law must be a rockjax ThreeBranchLaw (or None for the rigid block); got a "

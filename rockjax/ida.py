@@ -68,7 +68,7 @@ from .multiblock import simulate_assembly, stable_dt_assembly
 from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
-from .three_branch import ThreeBranchLaw
+from .three_branch import ThreeBranchFit, ThreeBranchLaw
 
 MODELS = ("dem", "housner", "three_branch")
 MODES = ("two_sided", "one_sided")
@@ -94,7 +94,7 @@ def ida(
     devices: Sequence[jax.Device] | None = None,
     im: str = "pga",
     joint: Joint | None = None,
-    law: ThreeBranchLaw | None = None,
+    law: ThreeBranchLaw | ThreeBranchFit | None = None,
     wall_motion: ShearBuilding | None = None,
 ) -> xr.Dataset:
     """Incremental dynamic analysis of one block: every record at every scale factor.
@@ -217,6 +217,8 @@ def run_config(
             )
     else:
         block = _scalar_block(block)
+    if isinstance(law, ThreeBranchFit):  # rj.fit_three_branch(...) passed as it is
+        law = law.law
     if model == "three_branch":
         if not isinstance(law, ThreeBranchLaw):
             raise ValueError(

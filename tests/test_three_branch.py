@@ -379,3 +379,20 @@ def test_fit_of_a_rigid_curve_gives_the_rigid_law():
 def test_fit_bad_input_raises(cap, match):
     with pytest.raises(ValueError, match=match):
         fit_three_branch(cap)
+
+
+def test_the_fit_result_can_be_passed_as_the_law():
+    # rj.fit_three_branch(cap) goes straight into simulate_housner(law=...) and rj.ida(law=...)
+    block = rj.Block(b=0.25, h=3.0)
+    law = rj.ThreeBranchLaw(lambda_0=0.25 / 3.0, Delta_1=0.04, Delta_2=0.15, Delta_u=0.9)
+    x = np.linspace(0.0, 0.95, 200)
+
+    class Curve:
+        d_over_b = x
+        load_multiplier = np.asarray(law.load_multiplier(x))
+
+    fit = rj.fit_three_branch(Curve())
+    gm = rj.GroundMotion.ricker(pga=1.5, period=0.5)
+    a = rj.simulate_housner(block, gm, mode="one_sided", law=fit)
+    b = rj.simulate_housner(block, gm, mode="one_sided", law=fit.law)
+    np.testing.assert_array_equal(np.asarray(a.theta), np.asarray(b.theta))
