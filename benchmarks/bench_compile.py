@@ -1,12 +1,16 @@
 """Benchmark compilation: a loop over records of different lengths, ``jit(grad)``, the disk cache.
 
 Run: ``python benchmarks/bench_compile.py [--dem] [--no-cache] [--no-calibrate]`` (about a
-minute on 2 cores; ``--dem`` adds the same loop with ``simulate_dem``, several minutes).
+minute on 2 cores; ``--dem`` adds the DEM loops, about half a minute more).
 
 1. A loop over ten FEMA P695 far-field components of ten different lengths (1 999 to 9 992
    samples, steps 0.005-0.02 s), each ``rj.simulate_housner(block, record)`` in turn as a
-   user would: the number of XLA compilations of the solver (counted with ``jax.monitoring``:
+   user would: the number of XLA compilations of the solver (counted from ``jax.log_compiles``:
    programs named ``_simulate``, and all programs), the first call and the other nine.
+   With ``--dem``, the same with ``rj.simulate_dem(block, record)``: first the eight far-field
+   components at dt = 0.01 s (eight lengths, 1 999 to 9 992 samples; one bucket and one
+   number of substeps a sample, so one compiled ``run_prepared``), then the ten above (one
+   program per record step: the substeps a sample are the inner scan's static length).
 2. ``jax.jit(jax.grad(f))`` with ``f(e) = simulate_housner(block, ricker, e=e).theta_max`` for a
    20 s Ricker record (dt = 0.01 s): trace-and-lower and XLA compile times, wall and CPU.
 3. The persistent compilation cache (``rockjax.compilation``): the same eager call in two
@@ -73,33 +77,51 @@ class CompileCounter(logging.Handler):
         self._log.__exit__(*exc)
 
 
-def loop_over_records(simulate, label: str) -> None:
-    records = rj.records.fema_p695("farfield")
+def _distinct_lengths(records, count):
     chosen, seen = [], set()
     for rec in records:
         if rec.n not in seen:
             seen.add(rec.n)
             chosen.append(rec)
-        if len(chosen) == 10:
+        if len(chosen) == count:
             break
+    return chosen
+
+
+def loop_over_records(simulate, label: str, solver: str = "_", records=None) -> None:
+    """Call ``simulate(block, record)`` over ``records`` (default: ten far-field components
+    of ten lengths) and count the compilations of programs whose name starts with ``solver``."""
+    chosen = records or _distinct_lengths(rj.records.fema_p695("farfield"), 10)
     block = rj.Block(b=0.25, h=1.5)
     lengths = ", ".join(f"{r.n}@{r.dt:g}s" for r in chosen)
-    print(f"\n{label}: ten records of ten lengths ({lengths})")
+    print(f"\n{label}: {len(chosen)} records of {len(chosen)} lengths ({lengths})")
     times = []
     with CompileCounter() as counter:
         for rec in chosen:
             t = time.perf_counter()
             jax.block_until_ready(simulate(block, rec).theta)
             times.append(time.perf_counter() - t)
-    solver = sum(n for name, n in counter.names.items() if name.startswith("_"))
+    names = sorted(k for k in counter.names if k.startswith(solver))
+    n_solver = sum(counter.names[k] for k in names)
     print(
-        f"  compilations: {solver} of the solver ({', '.join(sorted(k for k in counter.names if k.startswith('_')))}), "
+        f"  compilations: {n_solver} of the solver ({', '.join(names)}), "
         f"{sum(counter.names.values())} in all"
     )
+    rest = len(chosen) - 1
     print(
-        f"  first call {times[0]:.2f} s; the other nine {sum(times[1:]):.2f} s in all "
+        f"  first call {times[0]:.2f} s; the other {rest} {sum(times[1:]):.2f} s in all "
         f"(median {np.median(times[1:]) * 1e3:.1f} ms); loop {sum(times):.2f} s"
     )
+
+
+def dem_loops() -> None:
+    """The DEM loop: the far-field components of one record step (one number of substeps a
+    sample, so one compiled program for the bucket), then the ten of mixed steps (one program
+    per step)."""
+    records = rj.records.fema_p695("farfield")
+    one_step = _distinct_lengths([r for r in records if r.dt == 0.01], 10)
+    loop_over_records(rj.simulate_dem, "simulate_dem, dt 0.01 s", "run_prepared", one_step)
+    loop_over_records(rj.simulate_dem, "simulate_dem, mixed steps", "run_prepared")
 
 
 def grad_compile() -> None:
@@ -183,7 +205,7 @@ def main() -> None:
     print(f"rockjax compile benchmark, jax {jax.__version__}; {machine()}; load {load()}")
     loop_over_records(rj.simulate_housner, "simulate_housner")
     if args.dem:
-        loop_over_records(rj.simulate_dem, "simulate_dem")
+        dem_loops()
     grad_compile()
     if not args.no_cache:
         persistent_cache(calibrate=not args.no_calibrate)

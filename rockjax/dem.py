@@ -29,6 +29,12 @@ interpolated linearly in between.
 
 Scan layout: an outer scan over record samples (one output sample each, the carry
 checkpointed for reverse mode) and an inner scan over the substeps between two samples.
+
+Compile once per bucket of record lengths (:mod:`rockjax.compilation`): called with concrete
+inputs, :func:`simulate_dem` pads the record (and a moving wall's history) to
+:func:`padded_length` samples, repeating the last sample, and passes the true length as data;
+the outer scan then runs in chunks, skipping the chunks past the true length and freezing the
+state from there (:func:`run_prepared` with ``n``), and the outputs are cut on the host.
 """
 
 from __future__ import annotations
@@ -49,6 +55,7 @@ from ._checks import (
     concrete,
 )
 from .block import Block
+from .compilation import bucket_length, is_traced, notice_once, pad_to
 from .constants import G
 from .contact import Joint, normal_force, shear_force
 from .motion import GroundMotion
@@ -84,6 +91,11 @@ DEFAULT_SAVE_DT = 0.002
 """Output interval [s] for free rocking (no record)."""
 
 SAVE_OPTIONS = ("energy", "forces")
+
+SCAN_CHUNK = 256
+"""Samples per chunk of the outer scan when a record is padded to its bucket
+(:func:`run_prepared` with ``n``): a chunk wholly past the true length is skipped, so a record
+padded from 2 000 to 32 768 samples runs 120 empty chunks instead of 30 768 samples."""
 
 
 class DemParams(eqx.Module):
@@ -815,6 +827,7 @@ def run_prepared(
     save: tuple,
     throw: bool,
     wall=None,
+    n=None,
 ) -> Response:
     """The DEM run from a prepared state: what :func:`rockjax.simulate_dem` calls once it has
     checked its inputs (use it for set-ups it does not offer, e.g. a block dropped flat).
@@ -829,6 +842,13 @@ def run_prepared(
     samples, linear in between (a one-sided ``params`` only; None: a fixed wall). With
     ``"energy"`` in ``save`` the work done by the wall on the block [J] since ``t = 0`` is
     returned as ``extras["work_wall"]``.
+
+    ``n``: the true number of samples (an integer array: data, not a shape), when ``ag`` and
+    the other series are padded beyond it (:func:`rockjax.compilation.pad_to`); None: all.
+    From sample ``n`` on the state, the running maxima, ``overturned`` and ``status`` are
+    frozen, and whole chunks of :data:`SCAN_CHUNK` padded samples are skipped, so the padding
+    costs little time; the outputs hold the series up to the padded length (cut them to ``n``
+    samples). Every record whose length pads to one length then shares one compiled program.
     """
     n_base, n_wall = len(state0.fs_base), len(state0.fs_wall)
     ag_next = jnp.concatenate([ag[1:], ag[-1:]])
@@ -917,7 +937,10 @@ def run_prepared(
     carry0 = (_pack(state0), jnp.zeros((), bool), status0)
     if work:
         carry0 = carry0 + (jnp.zeros(()),)
-    (z, overturned, status, *_), out = jax.lax.scan(outer, carry0, xs)
+    if n is None:
+        (z, overturned, status, *_), out = jax.lax.scan(outer, carry0, xs)
+    else:
+        (z, overturned, status, *_), out = _scan_to(outer, carry0, xs, n)
     if throw:
         for code in (STATUS_BAD_INPUT, STATUS_UNSTABLE, STATUS_NONFINITE):
             msg = (
@@ -946,6 +969,40 @@ def run_prepared(
     )
 
 
+def _scan_to(body, carry0, xs, n):
+    """``jax.lax.scan(body, carry0, xs)`` over the first ``n`` (traced) samples of ``xs``: the
+    carry is frozen from sample ``n`` on (masked by the sample index), and the scan runs in
+    chunks of :data:`SCAN_CHUNK` samples, a chunk that starts at or past ``n`` skipped by a
+    ``lax.cond`` (its outputs zeros). A padded sample inside the last chunk costs one sample's
+    work; a skipped chunk almost nothing."""
+    n_pad = xs[0].shape[0]
+    k = math.gcd(n_pad, SCAN_CHUNK)
+    n = jnp.asarray(n)
+
+    shapes = jax.eval_shape(body, carry0, jax.tree.map(lambda a: a[0], xs))[1]
+
+    def zeros(shape=()):
+        return jax.tree.map(lambda s: jnp.zeros(shape + s.shape, s.dtype), shapes)
+
+    def sample(carry, x):
+        i, x = x
+        return jax.lax.cond(i < n, body, lambda c, _: (c, zeros()), carry, x)
+
+    xs_c = jax.tree.map(lambda a: a.reshape((n_pad // k, k) + a.shape[1:]), (jnp.arange(n_pad), xs))
+
+    def chunk(carry, xc):
+        def run(c):
+            return jax.lax.scan(sample, c, xc)
+
+        def skip(c):
+            return c, zeros((k,))
+
+        return jax.lax.cond(xc[0][0] < n, run, skip, carry)
+
+    carry, out = jax.lax.scan(chunk, carry0, xs_c)
+    return carry, jax.tree.map(lambda a: a.reshape((n_pad,) + a.shape[2:]), out)
+
+
 def simulate_dem(
     block: Block,
     motion: GroundMotion | None = None,
@@ -966,6 +1023,13 @@ def simulate_dem(
     wall_motion=None,
 ) -> Response:
     """Simulate the DEM rigid block under a ground motion and/or a free release.
+
+    Compiles once per bucket of record lengths (:mod:`rockjax.compilation`): called with
+    concrete inputs, the record is padded to :func:`padded_length` ``(n)`` samples (32 768 for
+    records up to that length) and its length passed as data, so a loop over records of
+    different lengths (or free-rocking durations) at one record step compiles once; a new
+    record step with a new number of substeps a sample compiles again. Inside
+    ``jit``/``vmap``/``grad`` the caller's transform fixes the shapes.
 
     Args:
         block: The block (geometry and material).
@@ -1059,9 +1123,71 @@ def simulate_dem(
     n_in = max(1, math.ceil(dt_out / dt_target - 1e-9))
     step = dt_out / n_in
     state0 = initial_state(params, theta0)
+    save = tuple(save)
     # step as an array: traced, so a new step (a new beta) does not recompile
-    return run_prepared(
-        params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, tuple(save), throw, wall
+    if is_traced(params, state0, ag, ag_v, wall, dt):
+        # inside the caller's jit/vmap/grad: their transform fixes the shapes
+        return run_prepared(
+            params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, save, throw, wall
+        )
+    # Compile once per bucket: the record is padded to its bucket (its last sample repeated,
+    # which is what the last sample's substeps interpolate toward anyway) and its length
+    # passed as data; the run freezes from there, and the outputs are cut on the host.
+    n_out = ag.shape[0]
+    n_pad = padded_length(n_out)
+    notice_once(
+        ("dem", n_pad, n_in, dt_out, mode, joint, save, throw),
+        f"rockjax: compiling the DEM solver for records of <= {n_pad} samples, {n_in} steps a "
+        "sample (once per session)...",
+    )
+    resp = run_prepared(
+        params,
+        state0,
+        pad_to(ag, n_pad),
+        pad_to(ag_v, n_pad),
+        np.asarray(step),
+        dt_out,
+        n_in,
+        save,
+        throw,
+        None if wall is None else tuple(pad_to(a, n_pad) for a in wall),
+        n=np.asarray(n_out, dtype=np.int32),
+    )
+    return _cut(resp, n_out)
+
+
+def padded_length(n: int) -> int:
+    """The length [samples] a concrete record of ``n`` samples is padded to by
+    :func:`simulate_dem`: its bucket (:func:`rockjax.compilation.bucket_length`), rounded up
+    to whole chunks of :data:`SCAN_CHUNK` samples."""
+    return SCAN_CHUNK * math.ceil(bucket_length(n) / SCAN_CHUNK)
+
+
+def _cut(resp: Response, n: int) -> Response:
+    """The padded run's series cut to the true ``n`` samples, on the host (an eager slice of a
+    device array would compile once per length)."""
+    if resp.t.shape[0] == n:
+        return resp
+
+    def cut(x):
+        return None if x is None else jax.device_put(np.asarray(x)[:n])
+
+    extras = dict(resp.extras)
+    for key in ("x", "y", "normal_forces", "work_wall"):
+        if key in extras:
+            extras[key] = cut(extras[key])
+    return Response(
+        t=cut(resp.t),
+        theta=cut(resp.theta),
+        theta_dot=cut(resp.theta_dot),
+        d=cut(resp.d),
+        overturned=resp.overturned,
+        status=resp.status,
+        theta_max=resp.theta_max,
+        eta=resp.eta,
+        b=resp.b,
+        energy=cut(resp.energy),
+        extras=extras,
     )
 
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import rockjax as rj
-from rockjax import compilation
+from rockjax import compilation, dem
 
 
 def _least_bucket(n, growth, minimum):
@@ -163,3 +163,159 @@ def test_a_second_process_loads_the_solver_from_the_cache(tmp_path):
     assert cache_hits(4.0) == 0
     assert any(path.name.startswith("jit__simulate") for path in (tmp_path / "cache").iterdir())
     assert cache_hits(6.0) >= 1
+
+
+# ----------------------------------------------------------------------------- the DEM
+
+DEM_SAME_RTOL = 1e-9  # [-] of a series' amplitude: the padded and the unpadded programs are
+# the same arithmetic, rounded differently where XLA fuses them differently (measured 3e-13 over
+# a few impacts; impacts amplify round-off, far from this bound over a few seconds)
+DEM_DT = 0.01  # [s] record step of the DEM records (one step: one n_in, one compiled program)
+
+
+def _dem_pulse(n, amp_g=0.2, dt=DEM_DT):
+    """One sine cycle of ``amp_g`` g, 0.5 s, then quiet (``n`` samples): the parapet rocks."""
+    t = np.arange(n) * dt
+    ag = np.where(t < 0.5, amp_g * 9.80665 * np.sin(2 * np.pi * t / 0.5), 0.0)
+    return rj.GroundMotion(ag=ag, dt=dt)
+
+
+def _dem_unpadded(block, gm, resp, *, mode="two_sided", gap=0.0, beta=0.0, save=(), wall=None):
+    """The same run through ``dem.run_prepared`` at the record's own length (no padding, no
+    true length): the program ``simulate_dem`` ran before records were padded."""
+    params = dem.dem_params(block, beta, mode=mode, gap=gap)
+    dt = float(resp.extras["dt"])
+    n_in = round(gm.dt / dt)
+    ag = np.asarray(gm.ag, dtype=float)
+    if mode == "one_sided" and wall is None:
+        wall = (np.zeros(gm.n), np.zeros(gm.n))
+    return dem.run_prepared(
+        params, dem.initial_state(params), ag, np.zeros_like(ag), np.asarray(dt), gm.dt, n_in,
+        save, True, wall,
+    )  # fmt: skip
+
+
+def _assert_same(got, want):
+    assert set(got.extras) == set(want.extras)
+    for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want)):
+        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+        assert a.shape == b.shape
+        # near a series' zero crossings only an error relative to its amplitude is meaningful
+        scale = np.max(np.abs(b), initial=1.0)
+        np.testing.assert_allclose(a, b, rtol=DEM_SAME_RTOL, atol=DEM_SAME_RTOL * scale)
+
+
+@pytest.fixture(scope="module")
+def parapet():
+    return rj.Block(b=0.25, h=1.5)
+
+
+def _count_compiles(run):
+    compiles = []
+
+    def listener(event, seconds, **kwargs):
+        if event == "/jax/core/compile/backend_compile_duration":
+            compiles.append(seconds)
+
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        out = run()
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    return compiles, out
+
+
+def test_dem_records_of_one_bucket_compile_once_and_match_the_unpadded_run(parapet):
+    # Reference: the unpadded run (dem.run_prepared at the record's own length), which is what
+    # simulate_dem ran before; and a count of XLA compilations (none after the first record).
+    lengths = (230, 301, 417, 555)
+    assert len({dem.padded_length(n) for n in lengths}) == 1
+    rj.simulate_dem(parapet, _dem_pulse(lengths[0]), save=("energy",))  # compiles (or reuses)
+    compiles, resps = _count_compiles(
+        lambda: [rj.simulate_dem(parapet, _dem_pulse(n), save=("energy",)) for n in lengths[1:]]
+    )
+    assert compiles == []
+    for n, resp in zip(lengths[1:], resps):
+        assert resp.theta.shape == resp.energy.shape == resp.extras["x"].shape == (n,)
+        assert resp.theta.dtype == jnp.float64
+        np.testing.assert_array_equal(resp.t, np.arange(n) * DEM_DT)
+    assert 0.2 < float(resps[-1].theta_max / parapet.eta) < 1  # it rocks, to 0.4 eta
+    gm = _dem_pulse(lengths[-1])
+    _assert_same(resps[-1], _dem_unpadded(parapet, gm, resps[-1], save=("energy",)))
+
+
+def test_dem_padding_changes_nothing_even_wild_padding(parapet):
+    # Reference: the unpadded run. The true length travels as data: samples past it are
+    # skipped and the state, the maxima, `overturned` and `status` frozen, so even a padding
+    # that would overturn the block (or is not finite) changes nothing, also when the block
+    # overturns inside the record; the pad here is not the repeated last sample simulate_dem
+    # uses, so this checks the freeze itself.
+    for amp_g in (0.2, 0.3):  # rocks (to 0.4 eta); overturns
+        gm = _dem_pulse(300, amp_g=amp_g)
+        params = dem.dem_params(parapet, 1e-3)
+        s0 = dem.initial_state(params)
+        dt = dem.stable_dt(parapet, 1e-3)
+        n_in = int(np.ceil(DEM_DT / dt - 1e-9))
+        step = np.asarray(DEM_DT / n_in)
+        ag = np.asarray(gm.ag)
+        n_pad = 2 * dem.SCAN_CHUNK + 17  # not whole chunks: the chunk shrinks to divide it
+        wild = np.concatenate([ag, np.full(n_pad - ag.size, 50.0)])
+        args = (DEM_DT, n_in, ("forces",), False)
+        padded = dem.run_prepared(params, s0, wild, np.zeros(n_pad), step, *args, n=np.int32(300))
+        want = dem.run_prepared(params, s0, ag, np.zeros(300), step, *args)
+        assert bool(want.overturned) == (amp_g > 0.25)
+        assert int(padded.status) == int(want.status) == 0
+        for a, b in zip(jax.tree.leaves(padded), jax.tree.leaves(want)):
+            a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+            if a.ndim and a.shape[0] == n_pad:
+                a = a[:300]
+            scale = np.max(np.abs(b), initial=1.0)
+            np.testing.assert_allclose(a, b, rtol=DEM_SAME_RTOL, atol=DEM_SAME_RTOL * scale)
+
+
+def test_dem_facade_with_a_moving_wall_pads_the_wall_too():
+    # Reference: the unpadded run with the same wall history. The wall's samples are padded
+    # with the record (its last position and velocity repeated), so its work and the contact
+    # with it match on the true samples.
+    facade = rj.Block(b=0.2, h=1.5)
+    n = 180
+    gm = _dem_pulse(n, amp_g=0.5)
+    t = np.arange(n) * DEM_DT
+    u = 2e-3 * np.sin(np.pi * t / 1.8) ** 2
+    v = 2e-3 * np.pi / 1.8 * np.sin(2 * np.pi * t / 1.8)
+    kw = dict(mode="one_sided", gap=1e-3, beta=1e-3, save=("energy",))
+    resp = rj.simulate_dem(facade, gm, wall_motion=(u, v), **kw)
+    assert resp.extras["work_wall"].shape == (n,)
+    assert np.max(np.abs(np.asarray(resp.extras["work_wall"]))) > 0
+    _assert_same(resp, _dem_unpadded(facade, gm, resp, wall=(u, v), **kw))
+
+
+def test_dem_traced_records_are_not_padded(parapet):
+    # Inside the caller's jit the record keeps its shape (no bucket) and the result is the
+    # eager (padded) one.
+    gm = _dem_pulse(230)
+    dt = rj.stable_dt(parapet)
+    eager = rj.simulate_dem(parapet, gm, dt=dt)
+
+    @jax.jit
+    def run(ag):
+        return rj.simulate_dem(parapet, rj.GroundMotion(ag=ag, dt=DEM_DT), dt=dt).theta
+
+    traced = run(jnp.asarray(gm.ag))
+    assert traced.shape == (230,)
+    scale = np.max(np.abs(np.asarray(eager.theta)))
+    np.testing.assert_allclose(traced, eager.theta, rtol=DEM_SAME_RTOL, atol=DEM_SAME_RTOL * scale)
+
+
+def test_a_compiling_dem_call_says_so_once(parapet, caplog):
+    kw = dict(save=("forces",), throw=False)  # a configuration that no other test compiles
+    with caplog.at_level(logging.INFO, logger="rockjax"):
+        r1 = rj.simulate_dem(parapet, _dem_pulse(200), **kw)
+        r2 = rj.simulate_dem(parapet, _dem_pulse(260), **kw)
+    n_in = round(DEM_DT / float(r1.extras["dt"]))
+    notes = [r.getMessage() for r in caplog.records if "compiling the DEM" in r.getMessage()]
+    assert notes == [
+        f"rockjax: compiling the DEM solver for records of <= {dem.padded_length(200)} samples, "
+        f"{n_in} steps a sample (once per session)..."
+    ]
+    assert r2.extras["normal_forces"].shape[0] == 260
