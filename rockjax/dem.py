@@ -54,6 +54,7 @@ from ._checks import (
     check_scalar,
     concrete,
 )
+from .assembly import Assembly
 from .block import Block
 from .compilation import bucket_length, is_traced, notice_once, pad_to
 from .constants import G
@@ -1004,7 +1005,7 @@ def _scan_to(body, carry0, xs, n):
 
 
 def simulate_dem(
-    block: Block,
+    block: Block | Assembly,
     motion: GroundMotion | None = None,
     *,
     beta=0.0,
@@ -1021,7 +1022,7 @@ def simulate_dem(
     beta_max=None,
     throw: bool = True,
     wall_motion=None,
-) -> Response:
+) -> Response | eqx.Module:  # an AssemblyResponse for an Assembly
     """Simulate the DEM rigid block under a ground motion and/or a free release.
 
     Compiles once per bucket of record lengths (:mod:`rockjax.compilation`): called with
@@ -1032,7 +1033,11 @@ def simulate_dem(
     ``jit``/``vmap``/``grad`` the caller's transform fixes the shapes.
 
     Args:
-        block: The block (geometry and material).
+        block: The block (geometry and material), or an :class:`rockjax.Assembly` of several
+            blocks: that runs :func:`rockjax.simulate_assembly` (per-block ``theta``, ``x``,
+            ``y``; ``mode``, ``gap``, ``wall_motion`` and ``save="forces"`` do not apply, the
+            assembly carries its own supports) and returns its
+            :class:`rockjax.AssemblyResponse`.
         motion: Ground motion; ``None`` for free rocking (then ``duration`` is required).
         beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1), alpha = 0.
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade with a return wall at -x).
@@ -1078,6 +1083,25 @@ def simulate_dem(
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
     """
+    if isinstance(block, Assembly):
+        return _simulate_assembly(
+            block,
+            motion,
+            beta=beta,
+            mode=mode,
+            gap=gap,
+            theta0=theta0,
+            duration=duration,
+            dt=dt,
+            accuracy=accuracy,
+            joint=joint,
+            phi_deg=phi_deg,
+            save_dt=save_dt,
+            save=save,
+            beta_max=beta_max,
+            throw=throw,
+            wall_motion=wall_motion,
+        )
     if isinstance(save, str):
         raise ValueError(
             f"save must be a tuple of output names, e.g. save=({save!r},); got save={save!r}."
@@ -1228,6 +1252,21 @@ def _is_array_pair(x):
     if not (isinstance(x, tuple) and len(x) == 2):
         return False
     return all(isinstance(a, (np.ndarray, jax.Array)) for a in x)
+
+
+def _simulate_assembly(assembly, motion, *, mode, gap, wall_motion, phi_deg, **kw):
+    """``simulate_dem`` on an :class:`Assembly`: :func:`rockjax.simulate_assembly`."""
+    from .multiblock import simulate_assembly  # imports this module: imported at call time
+
+    if mode != "two_sided" or wall_motion is not None or (concrete(gap) or 0.0) != 0.0:
+        raise ValueError(
+            "an Assembly carries its own supports (ground, top restraint with its gap): leave "
+            f"mode, gap and wall_motion at their defaults; got mode={mode!r}, gap={gap}, "
+            f"wall_motion={'given' if wall_motion is not None else None}."
+        )
+    if phi_deg is not None:
+        kw["phi_deg"] = phi_deg
+    return simulate_assembly(assembly, motion, **kw)
 
 
 def _fmt(x):

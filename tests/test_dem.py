@@ -766,3 +766,20 @@ def test_face_parapet_matches_64_sub_contacts():
     )
     e = _e1(blk, beta, rj.stable_dt(blk, beta, joint=EXACT), joint=EXACT, duration=1.6)
     assert abs(e - e64) < FACE_LIMIT_TOL, (e, e64)
+
+
+def test_simulate_dem_runs_an_assembly():
+    # simulate_dem(Assembly) is simulate_assembly; one block as an assembly is the block
+    # (the two-body DEM equals the single-block DEM to round-off, tests/test_assembly.py).
+    gm = rj.GroundMotion.ricker(pga=3.0, period=0.5)
+    block = rj.Block(b=0.25, h=3.0)
+    beta = float(rj.beta_dejong(block))
+    one = rj.simulate_dem(rj.Assembly.stack([block]), gm, beta=beta)
+    assert isinstance(one, rj.AssemblyResponse)
+    ref = rj.simulate_dem(block, gm, beta=beta, dt=float(one.dt))
+    scale = float(np.max(np.abs(np.asarray(ref.theta))))
+    np.testing.assert_allclose(
+        np.asarray(one.theta[:, 0]), np.asarray(ref.theta), atol=1e-10 * scale
+    )
+    with pytest.raises(ValueError, match="own supports"):
+        rj.simulate_dem(rj.Assembly.stack([block]), gm, beta=beta, mode="one_sided")
