@@ -12,14 +12,18 @@ shear buildings (``rj.ShearBuilding.uniform``) of 2 storeys (T1 = 0.2 s) and 3 s
     building's floor displacements interpolated at the facade height, the roof's above the
     roof), against the facade on a fixed wall.
 
-Each case is run with the DEM (beta per wall and mode from
-``experiments/results/pulse_study/beta.json``) and with Housner (default restitution: e_H,
-Eq. 2, two-sided; |e_1SR|, Eq. 5, one-sided), under the 28 pulse-like components of the FEMA
-P695 near-field set (metadata ``pulse == "yes"``), each normalised to PGA = 1 g, so a scale
-factor is the ground PGA in g. A record's **capacity** is the lowest sampled scale at which
-the block overturns (failed runs left out, later resurrections ignored, as
-``rj.collapse_intervals``). Scales: a coarse geometric grid (14 scales over 0.02-4 g), then 6
-scales inside each record's bracket below its first coarse collapse (20 per record; capacity
+Each case is run with the paper's three models: the DEM (beta per wall and mode from
+``experiments/results/pulse_study/beta.json``), Housner (default restitution: e_H, Eq. 2,
+two-sided; |e_1SR|, Eq. 5, one-sided) and the analytical model with the three-branch law
+(``simulate_housner(..., law=law)``, Housner's default restitution), its Delta_1, Delta_2,
+Delta_u fitted to the wall's DEM pushover (``rj.pushover``: ``mode="one_sided"`` for the
+facade, ``"two_sided"`` for the parapet; the default joint and pull) with the rigid line
+through lambda_0 = b/h (the paper's calibration, Fig. 9). The records: the 28 pulse-like
+components of the FEMA P695 near-field set (metadata ``pulse == "yes"``), each normalised to
+PGA = 1 g, so a scale factor is the ground PGA in g. A record's **capacity** is the lowest
+sampled scale at which the block overturns (failed runs left out, later resurrections ignored,
+as ``rj.collapse_intervals``). Scales: a coarse geometric grid (14 scales over 0.02-4 g), then
+6 scales inside each record's bracket below its first coarse collapse (20 per record; capacity
 resolved to ~6 %).
 
 Records of step 0.01 or 0.02 s are resampled to 0.005 s: exact, since every simulator takes the
@@ -31,17 +35,22 @@ step and similar length (one compiled batch per group).
 Outputs (``--out``, default experiments/results/building_study): ``capacities.csv`` (one row
 per wall, element, base and model and record), ``capacity_table.csv`` (medians),
 ``ratios.csv`` (per-record capacity ratios: roof / ground parapet, moving / fixed facade,
-facade / parapet without and with the building), ``roof_amplification.csv`` (median floor
-spectra), ``pulse_study_check.csv`` (the ground cases against the pulse study's capacities of
-the same records), ``summary.json`` (command, wall times, tables) and figures
-``capacities.png``, ``ratios.png``, ``roof_spectra.png``. Finished cases are cached in
-``runs/*.npz`` (an interrupted run resumes; a re-run redoes only the tables and figures).
+facade / parapet without and with the building), ``model_ratios.csv`` (per-record ratios
+between the models: three-branch / Housner, three-branch / DEM, Housner / DEM, per wall,
+element and base), ``three_branch_laws.csv`` (the fitted law per wall and element),
+``roof_amplification.csv`` (median floor spectra), ``pulse_study_check.csv`` (the ground cases
+against the pulse study's capacities of the same records), ``summary.json`` (command, wall
+times, tables) and figures
+``capacities.png``, ``ratios.png``, ``roof_spectra.png``, ``three_branch_laws.png``.
+Finished cases are cached in ``runs/*.npz`` (with the three-branch law they ran with: a case
+is redone if the law changed) and the pushover curves in ``runs/pushover_*.npz`` (an
+interrupted run resumes; a re-run redoes only the fits, tables and figures).
 The findings are written up in experiments/README.md.
 
     python experiments/building_study.py [--out DIR] [--quick]
 
-``--quick``: the 3 m wall, 4 records, 8 + 4 scales (a smoke run, < 2 min), written to
-``<out>/quick`` when ``--out`` is the default.
+``--quick``: the 3 m wall, 4 records, 8 + 4 scales, the three models (a smoke run, < 2 min),
+written to ``<out>/quick`` when ``--out`` is the default.
 """
 
 from __future__ import annotations
@@ -52,6 +61,7 @@ import json
 import math
 import pathlib
 import time
+import types
 
 import equinox as eqx
 import jax
@@ -76,7 +86,8 @@ BUILDINGS = {  # label: (storeys, T1 [s])
 }
 STOREY_HEIGHT = 3.2  # [m]
 DAMPING = 0.05  # [-]
-MODELS = ("dem", "housner")
+MODELS = ("dem", "housner", "three_branch")
+MODEL_LABEL = {"dem": "DEM", "housner": "Housner", "three_branch": "three-branch"}
 ELEMENTS = ("parapet", "facade")
 MODE_OF = {"parapet": "two_sided", "facade": "one_sided"}
 TAIL = 2.0  # free vibration after each record [s]
@@ -157,12 +168,89 @@ class Inputs:
                     self.wall[(bl, gi, h)] = walls[h]
 
 
+# ----------------------------------------------------------------------------- three-branch law
+LAW_FIELDS = ("lambda_0", "Delta_1", "Delta_2", "Delta_u")
+
+
+def fit_law(d_over_b, load_multiplier, lambda_0: float | None) -> rj.ThreeBranchFit:
+    """The paper's calibration (Fig. 9): the three-branch law fitted to a DEM pushover curve
+    on the curve from its start to the first point past the peak where it drops below zero
+    (beyond it the block is falling, not held).
+
+    Args:
+        d_over_b: Top displacement over thickness along the pushover [-].
+        load_multiplier: The pushover's ``lambda = a/g`` [-].
+        lambda_0: The rigid line's intercept [-]: ``b/h`` for the paper's calibration (only
+            the Deltas are fitted); None fits it too.
+
+    Returns:
+        The :class:`rockjax.ThreeBranchFit`.
+    """
+    d, lam = np.asarray(d_over_b, float), np.asarray(load_multiplier, float)
+    i_peak = int(np.argmax(lam))
+    below = np.flatnonzero(lam[i_peak:] < 0)
+    end = i_peak + int(below[0]) if below.size else d.size - 1
+    curve = types.SimpleNamespace(d_over_b=d[: end + 1], load_multiplier=lam[: end + 1])
+    return rj.fit_three_branch(curve, lambda_0=lambda_0)
+
+
+def wall_laws(blocks: dict, out: pathlib.Path) -> tuple[dict, dict, list[dict]]:
+    """The three-branch law of each wall and element from its DEM pushover (facade:
+    ``mode="one_sided"``, parapet: ``"two_sided"``; the default joint, pull rate and ``beta``).
+    The curves are cached in ``runs/pushover_*.npz``. Returns the laws by ``(wall,
+    element)``, the curves by ``(wall, element)`` and one table row per wall and element."""
+    laws, curves, rows = {}, {}, []
+    for geo, blk in blocks.items():
+        b, h = float(blk.b), float(blk.h)
+        for el in ELEMENTS:
+            mode = MODE_OF[el]
+            path = out / "runs" / f"pushover_{geo}_{mode}.npz"
+            if path.exists():
+                z = np.load(path)
+                d, lam, seconds = z["d_over_b"], z["load_multiplier"], float(z["seconds"])
+            else:
+                t0 = time.perf_counter()
+                cap = rj.pushover(blk, mode)
+                d, lam = np.asarray(cap.d_over_b), np.asarray(cap.load_multiplier)
+                seconds = time.perf_counter() - t0
+                np.savez(path, d_over_b=d, load_multiplier=lam, seconds=seconds)
+            fit = fit_law(d, lam, b / h)
+            free = fit_law(d, lam, None).law  # lambda_0 fitted too: for comparison only
+            laws[(geo, el)] = fit.law
+            curves[(geo, el)] = (d, lam)
+            i_peak = int(np.argmax(lam))
+            rows.append(
+                dict(
+                    geometry=geo,
+                    h=h,
+                    b=b,
+                    element=el,
+                    mode=mode,
+                    **{k: float(getattr(fit.law, k)) for k in LAW_FIELDS},
+                    lambda_p=float(fit.law.lambda_p),
+                    rmse_over_lambda_0=float(fit.rmse) / (b / h),
+                    max_error_over_lambda_0=float(fit.max_error) / (b / h),
+                    pushover_peak_over_lambda_0=float(lam[i_peak]) / (b / h),
+                    pushover_d_over_b_at_peak=float(d[i_peak]),
+                    free_fit_lambda_0_over_b_h=float(free.lambda_0) / (b / h),
+                    free_fit_Delta_1=float(free.Delta_1),
+                    free_fit_Delta_2=float(free.Delta_2),
+                    free_fit_Delta_u=float(free.Delta_u),
+                    pushover_s=seconds,
+                )
+            )
+    return laws, curves, rows
+
+
 # ----------------------------------------------------------------------------- runs
 @eqx.filter_jit
-def run_chunk(block, ag, rec_idx, scale, wall_u, wall_v, *, model, mode, beta, dt_rec, dt_step):
+def run_chunk(
+    block, ag, rec_idx, scale, wall_u, wall_v, *, model, mode, beta, dt_rec, dt_step, law=None
+):
     """Overturning, status and peak theta/eta of the runs ``scale[k] * ag[rec_idx[k]]``, the
     return wall (if any) at ``scale[k] * (wall_u, wall_v)[rec_idx[k]]`` (the building is
-    linear, so its motion scales with the record)."""
+    linear, so its motion scales with the record). ``model="three_branch"``: Housner with the
+    three-branch ``law`` (its defaults otherwise)."""
 
     def one(i, s):
         gm = rj.GroundMotion(ag=s * ag[i], dt=dt_rec)
@@ -170,6 +258,8 @@ def run_chunk(block, ag, rec_idx, scale, wall_u, wall_v, *, model, mode, beta, d
         if model == "dem":
             r = rj.simulate_dem(block, gm, beta=beta, mode=mode, dt=dt_step, throw=False, **kw)
         else:
+            if model == "three_branch":
+                kw["law"] = law
             r = rj.simulate_housner(block, gm, mode=mode, throw=False, **kw)
         ok = r.status == 0
         return r.overturned & ok, r.status.astype(jnp.int32), r.theta_max / r.eta
@@ -177,7 +267,7 @@ def run_chunk(block, ag, rec_idx, scale, wall_u, wall_v, *, model, mode, beta, d
     return jax.vmap(one)(rec_idx, scale)
 
 
-def run_pairs(block, model, mode, beta, group: Group, ag, wall, rows, scales, chunk):
+def run_pairs(block, model, mode, beta, group: Group, ag, wall, rows, scales, chunk, law=None):
     """Runs of (record row, scale) pairs in fixed-size chunks (one compilation per group)."""
     n = len(rows)
     pad = (-n) % chunk
@@ -200,6 +290,7 @@ def run_pairs(block, model, mode, beta, group: Group, ag, wall, rows, scales, ch
             beta=beta,
             dt_rec=group.dt,
             dt_step=dt_step,
+            law=law,
         )
         col.append(np.asarray(c))
         st.append(np.asarray(s))
@@ -218,7 +309,7 @@ def lowest_collapse(scales, collapse, status) -> tuple[float, int]:
     return (float(s[starts[0]]) if starts.size else math.inf), int(starts.size)
 
 
-def run_case(block, model, mode, beta, groups, base, walls, cfg) -> dict:
+def run_case(block, model, mode, beta, groups, base, walls, cfg, law=None) -> dict:
     """One IDA-like case: a coarse grid, then ``n_refine`` scales inside each record's bracket
     below its first coarse collapse. Returns per-record arrays of all runs and capacities."""
     coarse = cfg["coarse"]
@@ -229,7 +320,9 @@ def run_case(block, model, mode, beta, groups, base, walls, cfg) -> dict:
         nr, nc = len(g.idx), coarse.size
         rows = np.repeat(np.arange(nr), nc)
         scales = np.tile(coarse, nr)
-        c, s, p = run_pairs(block, model, mode, beta, g, ag, wall, rows, scales, cfg["chunk"])
+        c, s, p = run_pairs(
+            block, model, mode, beta, g, ag, wall, rows, scales, cfg["chunk"], law=law
+        )
         runs = {r: [scales[rows == r], c[rows == r], s[rows == r], p[rows == r]] for r in range(nr)}
         rows2, scales2 = [], []
         for r in range(nr):
@@ -242,7 +335,7 @@ def run_case(block, model, mode, beta, groups, base, walls, cfg) -> dict:
         if rows2:
             rows2, scales2 = np.asarray(rows2), np.asarray(scales2)
             c2, s2, p2 = run_pairs(
-                block, model, mode, beta, g, ag, wall, rows2, scales2, cfg["chunk"]
+                block, model, mode, beta, g, ag, wall, rows2, scales2, cfg["chunk"], law=law
             )
             for r in range(nr):
                 m = rows2 == r
@@ -265,20 +358,32 @@ def run_case(block, model, mode, beta, groups, base, walls, cfg) -> dict:
     return per_rec
 
 
-def save_case(path: pathlib.Path, per_rec: dict, seconds: float) -> None:
+def law_array(law) -> np.ndarray:
+    """``(lambda_0, Delta_1, Delta_2, Delta_u)`` of a three-branch law (empty for None)."""
+    if law is None:
+        return np.zeros(0)
+    return np.array([float(getattr(law, k)) for k in LAW_FIELDS])
+
+
+def save_case(path: pathlib.Path, per_rec: dict, seconds: float, law=None) -> None:
     names = list(per_rec)
-    arrays = {"names": np.array(names), "seconds": np.array(seconds)}
+    arrays = {"names": np.array(names), "seconds": np.array(seconds), "law": law_array(law)}
     for i, nm in enumerate(names):
         for k in ("scales", "collapse", "status", "peak"):
             arrays[f"{k}_{i}"] = per_rec[nm][k]
     np.savez(path, **arrays)
 
 
-def load_case(path: pathlib.Path, coarse) -> tuple[dict, float] | tuple[None, None]:
-    """The cached runs of a case and the seconds they took, or ``(None, None)``."""
+def load_case(path: pathlib.Path, coarse, law=None) -> tuple[dict, float] | tuple[None, None]:
+    """The cached runs of a case and the seconds they took, or ``(None, None)`` (none cached,
+    or cached on another scale grid or with another three-branch ``law``)."""
     if not path.exists():
         return None, None
     z = np.load(path)
+    cached_law = z["law"] if "law" in z else np.zeros(0)
+    want = law_array(law)
+    if cached_law.shape != want.shape or not np.allclose(cached_law, want, rtol=1e-12, atol=0):
+        return None, None  # another law: run again
     per_rec = {}
     for i, nm in enumerate(z["names"]):
         sc, co, stt, pk = (z[f"{k}_{i}"] for k in ("scales", "collapse", "status", "peak"))
@@ -394,6 +499,51 @@ def ratio_table(rows) -> list[dict]:
     return table
 
 
+MODEL_RATIOS = {  # name: (numerator model, denominator model)
+    "three_branch/housner": ("three_branch", "housner"),
+    "three_branch/dem": ("three_branch", "dem"),
+    "housner/dem": ("housner", "dem"),
+}
+
+
+def model_ratio_table(rows) -> list[dict]:
+    """Per-record capacity ratios between models for the same wall, element and base (both
+    finite), summarised like :func:`ratio_table`."""
+    cap = {
+        (r["geometry"], r["element"], r["base"], r["model"], r["record"]): r["capacity_g"]
+        for r in rows
+    }
+    table = []
+    cases = sorted({(r["geometry"], r["element"], r["base"]) for r in rows})
+    for geo, el, base in cases:
+        for name, (num, den) in MODEL_RATIOS.items():
+            recs = sorted({k[4] for k in cap if k[:3] == (geo, el, base)})
+            pairs = [
+                (cap[(geo, el, base, num, rec)], cap[(geo, el, base, den, rec)])
+                for rec in recs
+                if (geo, el, base, num, rec) in cap and (geo, el, base, den, rec) in cap
+            ]
+            if not pairs:
+                continue
+            v = np.array([a / b for a, b in pairs if math.isfinite(a) and math.isfinite(b)])
+            table.append(
+                dict(
+                    geometry=geo,
+                    element=el,
+                    base=base,
+                    ratio=name,
+                    n_pairs=int(v.size),
+                    n_censored_pairs=len(pairs) - int(v.size),
+                    median=float(np.median(v)) if v.size else math.nan,
+                    q25=float(np.quantile(v, 0.25)) if v.size else math.nan,
+                    q75=float(np.quantile(v, 0.75)) if v.size else math.nan,
+                    frac_below_1=float(np.mean(v < 1.0)) if v.size else math.nan,
+                    frac_above_1=float(np.mean(v > 1.0)) if v.size else math.nan,
+                )
+            )
+    return table
+
+
 def pulse_study_check(rows, path: pathlib.Path) -> list[dict]:
     """The study's ground parapets and fixed-wall facades against the pulse study's
     capacities of the same records (``capacities.csv``: a 48-scale grid, 11.9 % apart), record
@@ -479,7 +629,7 @@ def figures(out: pathlib.Path, rows, ratios, spectra, periods) -> list[str]:
         "parapet": ("ground", "roof 2st", "roof 3st"),
         "facade": ("fixed", "walls 2st", "walls 3st"),
     }
-    colors = {"dem": "tab:blue", "housner": "tab:orange"}
+    colors = {"dem": "tab:blue", "housner": "tab:orange", "three_branch": "tab:green"}
 
     # 1. capacity per record and median, per wall: parapets then facades, DEM and Housner
     fig, axes = plt.subplots(1, len(geos), figsize=(4.4 * len(geos), 4.4), squeeze=False)
@@ -499,11 +649,11 @@ def figures(out: pathlib.Path, rows, ratios, spectra, periods) -> list[str]:
                     )
                     if not c.size:
                         continue
-                    xx = x + (k - 0.5) * 0.3
+                    xx = x + (k - (len(MODELS) - 1) / 2) * 0.27
                     fin = c[np.isfinite(c)]
-                    jit = np.random.default_rng(x * 7 + k).uniform(-0.08, 0.08, fin.size)
+                    jit = np.random.default_rng(x * 7 + k).uniform(-0.06, 0.06, fin.size)
                     ax.scatter(xx + jit, fin, s=6, color=colors[model], alpha=0.5, lw=0)
-                    ax.plot([xx - 0.12, xx + 0.12], [_median(c)] * 2, color=colors[model], lw=2.5)
+                    ax.plot([xx - 0.1, xx + 0.1], [_median(c)] * 2, color=colors[model], lw=2.5)
                 labels.append(f"{el}\n{base}")
                 x += 1
         h, b = GEOMETRIES[geo]
@@ -516,7 +666,7 @@ def figures(out: pathlib.Path, rows, ratios, spectra, periods) -> list[str]:
         ax.grid(True, which="both", axis="y", alpha=0.3)
     axes[0][0].set_ylabel("capacity: lowest overturning ground PGA [g]")
     for model in MODELS:
-        axes[0][0].plot([], [], color=colors[model], lw=2.5, label=f"{model} (median)")
+        axes[0][0].plot([], [], color=colors[model], lw=2.5, label=f"{MODEL_LABEL[model]} (median)")
     axes[0][0].plot([], [], color="0.4", ls=":", label="static b/h")
     axes[0][0].legend(fontsize=7)
     n_rec = len({r["record"] for r in rows})
@@ -528,7 +678,7 @@ def figures(out: pathlib.Path, rows, ratios, spectra, periods) -> list[str]:
 
     # 2. ratios: median and interquartile range of the per-record ratios
     names = list(RATIOS)
-    fig, axes = plt.subplots(1, len(MODELS), figsize=(12, 4.6), sharey=True)
+    fig, axes = plt.subplots(1, len(MODELS), figsize=(5.5 * len(MODELS), 4.6), sharey=True)
     markers = dict(zip(geos, "osD^"))
     for ax, model in zip(axes, MODELS):
         for j, geo in enumerate(geos):
@@ -553,7 +703,7 @@ def figures(out: pathlib.Path, rows, ratios, spectra, periods) -> list[str]:
         ax.set_yscale("log")
         ax.set_xticks(range(len(names)))
         ax.set_xticklabels([n.replace(" ", "\n", 1) for n in names], fontsize=7)
-        ax.set_title(f"{'DEM' if model == 'dem' else 'Housner'}: capacity ratios per record")
+        ax.set_title(f"{MODEL_LABEL[model]}: capacity ratios per record")
         ax.grid(True, which="both", axis="y", alpha=0.3)
     axes[0].set_ylabel("ratio of capacities [-] (median, IQR)")
     axes[0].legend(fontsize=8)
@@ -590,6 +740,38 @@ def figures(out: pathlib.Path, rows, ratios, spectra, periods) -> list[str]:
     plt.close(fig)
     written.append("roof_spectra.png")
     return written
+
+
+def law_figure(out: pathlib.Path, blocks, laws, curves) -> str:
+    """The DEM pushover of each wall with its fitted three-branch laws (facade, parapet)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    geos = list(blocks)
+    fig, axes = plt.subplots(1, len(geos), figsize=(3.6 * len(geos), 3.4), squeeze=False)
+    for ax, geo in zip(axes[0], geos):
+        b, h = float(blocks[geo].b), float(blocks[geo].h)
+        for k, el in enumerate(ELEMENTS):
+            d, lam = curves[(geo, el)]
+            law = laws[(geo, el)]
+            ax.plot(d, lam / (b / h), color=f"C{k}", lw=1.6 - 0.8 * k, label=f"DEM, {el}")
+            x = np.linspace(0.0, 1.0, 401)
+            lam_law = np.asarray(law.load_multiplier(x)) / (b / h)
+            ax.plot(x, lam_law, color=f"C{k}", ls="--", lw=1.0, label=f"law, {el}")
+        ax.plot([0, 1], [1, 0], color="0.5", ls=":", lw=0.8, label="rigid block")
+        ax.set_ylim(0, 1.05)
+        ax.set_xlim(0, 1)
+        ax.set_xlabel("d / b [-]")
+        ax.set_title(f"h x b = {h:.2f} x {b:.3f} m", fontsize=9)
+        ax.grid(True, alpha=0.3)
+    axes[0][0].set_ylabel("load multiplier / (b/h) [-]")
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "three_branch_laws.png", dpi=130)
+    plt.close(fig)
+    return "three_branch_laws.png"
 
 
 # ----------------------------------------------------------------------------- main
@@ -629,7 +811,7 @@ def main(argv=None) -> dict:
     inputs = Inputs(groups, buildings, heights)
     wall_s["records_and_buildings"] = time.perf_counter() - t0
     print(
-        f"[1/4] {len(records)} pulse-like records in {len(groups)} groups "
+        f"[1/5] {len(records)} pulse-like records in {len(groups)} groups "
         f"({', '.join(f'{len(g.idx)} x {g.n} at {g.dt:g} s' for g in groups)}); buildings "
         + ", ".join(
             f"{bl}: T = {np.round(np.asarray(bd.periods), 3).tolist()} s"
@@ -642,6 +824,19 @@ def main(argv=None) -> dict:
         print(
             f"      roof PGA / ground PGA, {bl}: median {np.median(amp):.2f} "
             f"(range {amp.min():.2f}-{amp.max():.2f})"
+        )
+
+    t0 = time.perf_counter()
+    laws, curves, law_rows = wall_laws(blocks, out)
+    wall_s["pushovers_and_fits"] = time.perf_counter() - t0
+    print(f"[2/5] three-branch laws from DEM pushovers ({wall_s['pushovers_and_fits']:.1f} s)")
+    for r in law_rows:
+        print(
+            f"      {r['geometry']} {r['element']:7s} ({r['mode']}): Delta_1 {r['Delta_1']:.4f} "
+            f"Delta_2 {r['Delta_2']:.4f} Delta_u {r['Delta_u']:.4f} (lambda_0 = b/h, "
+            f"lambda_p = {r['lambda_p'] / r['lambda_0']:.3f} b/h, rmse "
+            f"{r['rmse_over_lambda_0']:.3f} b/h; pushover peak "
+            f"{r['pushover_peak_over_lambda_0']:.3f} b/h, {r['pushover_s']:.1f} s)"
         )
 
     t0 = time.perf_counter()
@@ -658,10 +853,11 @@ def main(argv=None) -> dict:
         blk = blocks[geo]
         mode = MODE_OF[el]
         beta = betas[(geo, el)] if model == "dem" else None
+        law = laws[(geo, el)] if model == "three_branch" else None
         tag = f"{geo}_{el}_{base.replace(' ', '')}_{model}" + ("_quick" if args.quick else "")
         path = out / "runs" / f"{tag}.npz"
         tc = time.perf_counter()
-        per_rec, seconds = load_case(path, cfg["coarse"])
+        per_rec, seconds = load_case(path, cfg["coarse"], law)
         cached = per_rec is not None
         if per_rec is None:
             if base.startswith("roof"):
@@ -677,16 +873,16 @@ def main(argv=None) -> dict:
                 walls = [(np.zeros_like(g.ag), np.zeros_like(g.ag)) for g in groups]
             else:
                 walls = None
-            per_rec = run_case(blk, model, mode, beta, groups, base_ag, walls, cfg)
+            per_rec = run_case(blk, model, mode, beta, groups, base_ag, walls, cfg, law=law)
             seconds = time.perf_counter() - tc
-            save_case(path, per_rec, seconds)
+            save_case(path, per_rec, seconds, law)
         case_s[tag] = seconds
         results[(geo, el, base, model)] = per_rec
         caps = np.array([v["capacity_g"] for v in per_rec.values()])
         n_failed = sum(v["n_failed"] for v in per_rec.values())
         n_runs = sum(v["scales"].size for v in per_rec.values())
         print(
-            f"  [{n_case}/{len(cases)}] {geo} {el:7s} {base:9s} {model:7s}: median capacity "
+            f"  [{n_case}/{len(cases)}] {geo} {el:7s} {base:9s} {model:12s}: median capacity "
             f"{_median(caps):.3g} g (ground PGA), censored {int(np.sum(~np.isfinite(caps)))}, "
             f"failed runs {n_failed}/{n_runs} "
             f"({f'cached, computed in {seconds:.1f} s' if cached else f'{seconds:.1f} s'})",
@@ -695,7 +891,7 @@ def main(argv=None) -> dict:
     wall_s["runs"] = time.perf_counter() - t0
     wall_s["runs_as_computed"] = float(sum(case_s.values()))
     print(
-        f"[2/4] {len(cases)} cases ({wall_s['runs']:.1f} s; computing them took "
+        f"[3/5] {len(cases)} cases ({wall_s['runs']:.1f} s; computing them took "
         f"{wall_s['runs_as_computed']:.1f} s)"
     )
 
@@ -725,6 +921,7 @@ def main(argv=None) -> dict:
             )
     table = capacity_table(rows)
     ratios = ratio_table(rows)
+    model_ratios = model_ratio_table(rows)
     periods = np.concatenate([[0.0], np.geomspace(0.05, 3.0, 40)])
     spectra = roof_spectra(groups, buildings, periods)
     check = pulse_study_check(rows, PULSE_STUDY_CAPACITIES)
@@ -733,6 +930,8 @@ def main(argv=None) -> dict:
     write_csv(out / "capacities.csv", rows)
     write_csv(out / "capacity_table.csv", table)
     write_csv(out / "ratios.csv", ratios)
+    write_csv(out / "model_ratios.csv", model_ratios)
+    write_csv(out / "three_branch_laws.csv", law_rows)
     write_csv(
         out / "roof_amplification.csv",
         [
@@ -741,18 +940,25 @@ def main(argv=None) -> dict:
         ],
     )
     wall_s["analysis"] = time.perf_counter() - t0
-    print(f"[3/4] tables ({wall_s['analysis']:.1f} s)")
+    print(f"[4/5] tables ({wall_s['analysis']:.1f} s)")
     t0 = time.perf_counter()
     written = figures(out, rows, ratios, spectra, periods)
+    written.append(law_figure(out, blocks, laws, curves))
     wall_s["figures"] = time.perf_counter() - t0
     wall_s["total"] = time.perf_counter() - t_all
-    print(f"[4/4] figures {written} ({wall_s['figures']:.1f} s); total {wall_s['total']:.1f} s")
+    print(f"[5/5] figures {written} ({wall_s['figures']:.1f} s); total {wall_s['total']:.1f} s")
 
     for t in ratios:
         print(
-            f"  {t['geometry']} {t['model']:7s} {t['ratio']:24s} median {t['median']:.3g} "
+            f"  {t['geometry']} {t['model']:12s} {t['ratio']:24s} median {t['median']:.3g} "
             f"[IQR {t['q25']:.3g}-{t['q75']:.3g}], n {t['n_pairs']}, censored pairs "
             f"{t['n_censored_pairs']}, below 1: {t['frac_below_1']:.2f}"
+        )
+    for t in model_ratios:
+        print(
+            f"  {t['geometry']} {t['element']:7s} {t['base']:9s} {t['ratio']:21s} median "
+            f"{t['median']:.3g} [IQR {t['q25']:.3g}-{t['q75']:.3g}], n {t['n_pairs']}, "
+            f"below 1: {t['frac_below_1']:.2f}, above 1: {t['frac_above_1']:.2f}"
         )
     for t in check:
         print(
@@ -781,6 +987,8 @@ def main(argv=None) -> dict:
         beta={f"{k[0]}/{MODE_OF[k[1]]}": v for k, v in betas.items()},
         capacity_table=table,
         ratios=ratios,
+        three_branch_laws=law_rows,
+        model_ratios=model_ratios,
         pulse_study_check=check,
         wall_s=wall_s,
         case_s=case_s,
