@@ -1022,6 +1022,8 @@ def simulate_dem(
     beta_max=None,
     throw: bool = True,
     wall_motion=None,
+    support_motion=None,
+    storey: int | None = None,
 ) -> Response | eqx.Module:  # an AssemblyResponse for an Assembly
     """Simulate the DEM rigid block under a ground motion and/or a free release.
 
@@ -1072,6 +1074,10 @@ def simulate_dem(
             ``ShearBuilding``, the wall's absolute acceleration as a ``GroundMotion``, or
             ``(height, GroundMotion)`` pairs). Linear between samples; past the record's end
             (a longer ``duration``) the wall holds its last position.
+        support_motion: An :class:`rockjax.Assembly` only: the :class:`rockjax.ShearBuilding`
+            the wall stands in (with ``storey``); see :func:`rockjax.simulate_assembly`.
+        storey: The storey of ``support_motion`` the wall spans (its base on floor
+            ``storey - 1``, its top restraint following floor ``storey``).
 
     Returns:
         A :class:`rockjax.Response` sampled at the record samples (or every ``save_dt``);
@@ -1101,6 +1107,15 @@ def simulate_dem(
             beta_max=beta_max,
             throw=throw,
             wall_motion=wall_motion,
+            support_motion=support_motion,
+            storey=storey,
+        )
+    if support_motion is not None or storey is not None:
+        raise ValueError(
+            "support_motion= and storey= place a wall of several blocks (an rj.Assembly) in a "
+            "building; a single block on a floor runs on that floor's motion: "
+            "rj.simulate_dem(block, bldg.floor_motions(gm)[i], ...), or wrap it as "
+            "rj.Assembly.stack([block])."
         )
     if isinstance(save, str):
         raise ValueError(
@@ -1254,7 +1269,9 @@ def _is_array_pair(x):
     return all(isinstance(a, (np.ndarray, jax.Array)) for a in x)
 
 
-def _simulate_assembly(assembly, motion, *, mode, gap, wall_motion, phi_deg, **kw):
+def _simulate_assembly(
+    assembly, motion, *, mode, gap, wall_motion, phi_deg, support_motion, storey, **kw
+):
     """``simulate_dem`` on an :class:`Assembly`: :func:`rockjax.simulate_assembly`."""
     from .multiblock import simulate_assembly  # imports this module: imported at call time
 
@@ -1266,6 +1283,8 @@ def _simulate_assembly(assembly, motion, *, mode, gap, wall_motion, phi_deg, **k
         )
     if phi_deg is not None:
         kw["phi_deg"] = phi_deg
+    if support_motion is not None or storey is not None:
+        kw.update(support_motion=support_motion, storey=storey)
     return simulate_assembly(assembly, motion, **kw)
 
 

@@ -41,6 +41,7 @@ from ._checks import (
 )
 from .assembly import Assembly
 from .block import Block
+from .building import ShearBuilding
 from .constants import G
 from .contact import Joint, normal_force, shear_force
 from .dem import DT_ACCURACY, DT_ACCURACY_SUB, DT_SAFETY, dem_params, initial_state
@@ -645,8 +646,10 @@ def _add(a, b):
     return [[_plus(a[i][j], b[i][j]) for j in range(3)] for i in range(3)]
 
 
-def _top(p: AssemblyParams, st: AssemblyState, dt):
-    """Overburden and top restraint on the top block: generalised force and dashpot block."""
+def _top(p: AssemblyParams, st: AssemblyState, dt, top_motion=None):
+    """Overburden and top restraint on the top block: generalised force and dashpot block.
+    ``top_motion``: the restraint's displacement [m] and velocity [m/s] relative to the base
+    (``None``: it moves with the base)."""
     k = p.n - 1
     c, s = st.c[k], st.s[k]
     rx, ry = 0.5 * p.h[k] * s, 0.5 * p.h[k] * c  # top face centre from the centroid
@@ -658,9 +661,14 @@ def _top(p: AssemblyParams, st: AssemblyState, dt):
         qx = st.x[k] + rx
         qxd = st.vx[k] + st.w[k] * ry
         dt_onset = dt if p.onset == "sub_step" else None
-        ref = p.x0[k]
-        f_r, _, frac_r = normal_force(qx - ref - p.gap, qxd, p.k_top, p.beta, p.dashpot, dt_onset)
-        f_l, _, frac_l = normal_force(ref - p.gap - qx, -qxd, p.k_top, p.beta, p.dashpot, dt_onset)
+        ref, vref = p.x0[k], 0.0
+        if top_motion is not None:
+            ref, vref = ref + top_motion[0], top_motion[1]
+        rel_v = qxd - vref
+        f_r, _, frac_r = normal_force(qx - ref - p.gap, rel_v, p.k_top, p.beta, p.dashpot, dt_onset)
+        f_l, _, frac_l = normal_force(
+            ref - p.gap - qx, -rel_v, p.k_top, p.beta, p.dashpot, dt_onset
+        )
         fq = f_l - f_r  # horizontal force on the block at the top face centre
         fx = fx + fq
         mom = mom + ry * fq
@@ -672,9 +680,25 @@ def _top(p: AssemblyParams, st: AssemblyState, dt):
     return (fx, fy, mom), cmat
 
 
-def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt):
+def step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load=None, top_motion=None):
     """One central-difference step of the assembly with centred dashpots (the scheme of
-    :mod:`rockjax.dem`: ``(M + dt/2 C) a_n = F``, solved by block elimination)."""
+    :mod:`rockjax.dem`: ``(M + dt/2 C) a_n = F``, solved by block elimination).
+
+    Args:
+        p: The parameters (:func:`assembly_params`).
+        st: The state at step ``n`` (velocities at ``n - 1/2``).
+        ag: Horizontal acceleration of the base [m/s^2] (the frame of the run).
+        ag_v: Vertical acceleration of the base [m/s^2].
+        dt: Time step [s].
+        load: Optional external load, one ``(Fx, Fy, M)`` [N, N, N m] per block (force on
+            the centroid, clockwise moment), or ``None``.
+        top_motion: Optional ``(u, v)``: the top restraint's horizontal displacement [m] and
+            velocity [m/s] relative to the base (a floor above the base floor), or ``None``.
+
+    Returns:
+        The state at ``n + 1`` and the accelerations ``[[ax, ay, alpha], ...]`` per block at
+        step ``n`` [m/s^2, rad/s^2] (relative to the base).
+    """
     n = p.n
     force = [[0.0, 0.0, 0.0] for _ in range(n)]
     cdiag = [[[0.0] * 3 for _ in range(3)] for _ in range(n)]
@@ -690,8 +714,10 @@ def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt):
             force[k - 1] = [_plus(force[k - 1][i], f_l[i]) for i in range(3)]
             cdiag[k - 1] = _add(cdiag[k - 1], c_ll)
             clow[k] = c_ul
-    f_top, c_top = _top(p, st, dt)
+    f_top, c_top = _top(p, st, dt, top_motion)
     force[n - 1] = [_plus(force[n - 1][i], f_top[i]) for i in range(3)]
+    if load is not None:
+        force = [[_plus(force[k][i], load[k][i]) for i in range(3)] for k in range(n)]
     if c_top is not None:
         cdiag[n - 1] = _add(cdiag[n - 1], c_top)
     h = 0.5 * dt
@@ -860,9 +886,19 @@ def initial_assembly_state(
 
 
 @eqx.filter_jit
-def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int, save, throw):
-    ag_next = jnp.concatenate([ag[1:], ag[-1:]])
-    agv_next = jnp.concatenate([ag_v[1:], ag_v[-1:]])
+def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int, save, throw, top):
+    """``top``: ``None``, or the top restraint's displacement [m] and velocity [m/s] relative
+    to the base at the samples, linear between them as ``ag``."""
+
+    def nxt(a):
+        return jnp.concatenate([a[1:], a[-1:]])
+
+    ag_next, agv_next = nxt(ag), nxt(ag_v)
+    if top is None:
+        zeros = jnp.zeros_like(ag)
+        top_xs = (zeros, zeros, zeros, zeros)
+    else:
+        top_xs = (top[0], nxt(top[0]), top[1], nxt(top[1]))
     w_max = omega_max(p)
     unstable = dt > 2.0 / w_max * (1.0 + 1e-9)
     positive = jnp.concatenate([p.m, p.I_c, p.b, p.h, p.kn_line, p.hi - p.lo, p.tan_phi[None]])
@@ -876,19 +912,22 @@ def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int,
         & jnp.isfinite(p.top_load)
         & jnp.all(jnp.isfinite(ag))
         & jnp.all(jnp.isfinite(ag_v))
+        & jnp.all(jnp.stack([jnp.all(jnp.isfinite(a)) for a in top_xs]))
     )
 
     def outer(carry, xs):
         st, overturned, status = carry
-        a0, a1, v0, v1 = xs
+        a0, a1, v0, v1, u0, u1, w0, w1 = xs
         da, dv = (a1 - a0) / n_in, (v1 - v0) / n_in
+        du, dw = (u1 - u0) / n_in, (w1 - w0) / n_in
         zero = jnp.zeros_like(a0)
 
         # one scan over the n_in substeps (one copy of the step in the program); the
         # accelerations of the first substep, at the sample time, travel in the carry
         def inner(c, _):
             s_, j, first = c
-            s_, acc = _step(p, s_, a0 + j * da, v0 + j * dv, dt)
+            tm = None if top is None else (u0 + j * du, w0 + j * dw)
+            s_, acc = step(p, s_, a0 + j * da, v0 + j * dv, dt, top_motion=tm)
             # scalars, not a stacked vector: XLA:CPU would build a vector element by element,
             # each element's fusion recomputing the step
             flat = [v for row in acc for v in row]
@@ -928,7 +967,7 @@ def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int,
     outer = jax.checkpoint(outer, prevent_cse=False)
     status0 = jnp.where(bad_input, STATUS_BAD_INPUT, STATUS_OK)
     (st, overturned, status), out = jax.lax.scan(
-        outer, (st0, jnp.zeros((), bool), status0), (ag, ag_next, ag_v, agv_next)
+        outer, (st0, jnp.zeros((), bool), status0), (ag, ag_next, ag_v, agv_next, *top_xs)
     )
     if throw:
         for code in (STATUS_BAD_INPUT, STATUS_UNSTABLE, STATUS_NONFINITE):
@@ -967,9 +1006,18 @@ def simulate_assembly(
     save: tuple[str, ...] = (),
     beta_max=None,
     throw: bool = True,
+    support_motion: ShearBuilding | None = None,
+    storey: int = 1,
 ) -> AssemblyResponse:
     """Simulate an assembly of rigid blocks on penalty joints under a ground motion and/or a
     free release (the DEM of :func:`rockjax.simulate_dem`, block by block).
+
+    In a building (``support_motion=bldg``), the wall of storey ``storey`` stands on floor
+    ``storey - 1`` (0 the ground) and its top restraint is held by floor ``storey``: the run
+    is in the frame of the base floor (the ground acceleration is the base floor's absolute
+    acceleration) and the restraint moves by the storey's drift (floor ``storey`` less floor
+    ``storey - 1``, relative displacement and velocity of :meth:`rockjax.ShearBuilding.response`,
+    linear between samples), docs/assemblies.md "Supports in a building".
 
     Args:
         assembly: The :class:`rockjax.assembly.Assembly`.
@@ -990,9 +1038,15 @@ def simulate_assembly(
         save: Extra outputs: ``("energy",)`` (total mechanical energy [J]).
         beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
         throw: Raise (also inside ``jit``) if the run fails; if False, report ``status``.
+        support_motion: A :class:`rockjax.ShearBuilding` whose floors carry the wall (needs
+            ``motion``, the ground motion under the building); ``None``: the ground.
+        storey: The storey the wall stands in (1-based, with ``support_motion``): base on
+            floor ``storey - 1``, top restraint at floor ``storey``; ``n_storeys + 1`` for a
+            wall on the roof (free top only).
 
     Returns:
-        An :class:`AssemblyResponse` with per-block ``theta``, ``x``, ``y`` (time x block).
+        An :class:`AssemblyResponse` with per-block ``theta``, ``x``, ``y`` (time x block);
+        ``x`` relative to the base (the base floor in a building).
 
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
@@ -1006,6 +1060,7 @@ def simulate_assembly(
     p = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg)
     _check_theta0(theta0, assembly)
     ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
+    ag, top = _in_building(support_motion, storey, assembly, motion, ag, dt_out)
     accuracy = _check_accuracy(accuracy, joint)
     limit, dt_default = _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, phi_deg)
     if dt is None:
@@ -1023,7 +1078,51 @@ def simulate_assembly(
     step = dt_out / n_in
     st0 = initial_assembly_state(assembly, p, theta0, joint)
     # the steps as arrays: traced, so a new step does not recompile (n_in is static)
-    return _run(p, st0, ag, ag_v, np.asarray(step), np.asarray(dt_out), n_in, tuple(save), throw)
+    return _run(
+        p, st0, ag, ag_v, np.asarray(step), np.asarray(dt_out), n_in, tuple(save), throw, top
+    )
+
+
+def _in_building(building, storey, assembly: Assembly, motion, ag, dt_out):
+    """The base floor's absolute acceleration [m/s^2] and the top restraint's motion
+    relative to it (``(u [m], v [m/s])`` or ``None``), from the building's exact response
+    to the (padded) ground acceleration ``ag``."""
+    if building is None:
+        if storey != 1:
+            raise ValueError(
+                f"storey={storey!r} needs support_motion=<rockjax.ShearBuilding> (the floors "
+                "that carry the wall); leave storey=1 for a wall on the ground."
+            )
+        return ag, None
+    if not isinstance(building, ShearBuilding):
+        raise ValueError(
+            f"support_motion must be a rockjax.ShearBuilding (the floors carrying the wall); "
+            f"got {type(building).__name__}. Build one with rj.ShearBuilding.uniform(...)."
+        )
+    if motion is None:
+        raise ValueError(
+            "support_motion needs motion=<rockjax.GroundMotion>, the ground motion under the "
+            "building (its floors move only under a record)."
+        )
+    n = building.n_storeys
+    restrained = assembly.top == "restrained"
+    top_max = n if restrained else n + 1
+    if not (isinstance(storey, int) and not isinstance(storey, bool) and 1 <= storey <= top_max):
+        raise ValueError(
+            f"storey (1-based storey the wall stands in) must be an integer in 1..{top_max} "
+            f"for this {n}-storey building and a {assembly.top} top; got storey={storey!r}. "
+            f"Storey i stands on floor i - 1 (0 the ground); a restrained top needs floor i."
+        )
+    resp = building.response(GroundMotion(ag=ag, dt=dt_out))
+    base = storey - 1
+    if base > 0:
+        ag = resp.acceleration[base - 1]
+    if not restrained:
+        return ag, None
+    u, v = resp.displacement[storey - 1], resp.velocity[storey - 1]
+    if base > 0:
+        u, v = u - resp.displacement[base - 1], v - resp.velocity[base - 1]
+    return ag, (u, v)
 
 
 def _check_theta0(theta0, assembly: Assembly):

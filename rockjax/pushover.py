@@ -20,10 +20,13 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ._checks import check_choice, check_nonnegative, check_positive
+from .assembly import Assembly, collapse_multiplier
 from .block import Block
 from .constants import G
 from .contact import Joint
 from .dem import MODES, dem_params, initial_state, stable_dt, step
+from .multiblock import assembly_params, initial_assembly_state, stable_dt_assembly
+from .multiblock import step as assembly_step
 from .relations import beta_dejong
 
 CONTROL_STIFFNESS = 50.0
@@ -68,6 +71,16 @@ class Capacity(eqx.Module):
         h: Block height [m].
         overburden: ``N`` [N/m] at the top centre.
         t: Time of each sample in the pull [s] (from the start of pulling).
+        theta_blocks: For an :class:`rockjax.Assembly`, the rotation of each block [rad]
+            (sample x block); ``None`` for one block.
+
+    For an assembly, ``b`` is block 0's thickness, ``h`` the stack's height,
+    ``lambda_rigid`` the smallest multiplier of the rigid mechanisms the supports allow (each
+    sub-stack about its base toe; the two-block hinge with a top restraint; NaN for a
+    restrained wall of more blocks), see :func:`rockjax.collapse_multiplier`, ``theta`` the rotation of the block that rotated most by
+    the end of the pull, and ``d_over_b`` the largest horizontal displacement of a block's
+    top face centre over ``b`` (docs/pushover.md, "Assemblies");
+    :meth:`rigid_load_multiplier` is the one-block curve and does not apply.
     """
 
     load_multiplier: Float[Array, " sample"]
@@ -78,6 +91,7 @@ class Capacity(eqx.Module):
     h: Float[Array, ""]
     overburden: Float[Array, ""]
     t: Float[Array, " sample"]
+    theta_blocks: Float[Array, "sample block"] | None = None
 
     def rigid_load_multiplier(self, theta) -> Float[Array, "..."]:
         r"""The rigid block's ``lambda`` at rotation ``theta`` [rad] (virtual work about the toe):
@@ -98,7 +112,7 @@ class Capacity(eqx.Module):
 
 
 def pushover(
-    block: Block,
+    block: Block | Assembly,
     mode: str = "two_sided",
     overburden=0.0,
     *,
@@ -110,7 +124,7 @@ def pushover(
     phi_deg=None,
     gap=0.0,
 ) -> Capacity:
-    """Quasi-static monotonic DEM pushover of a block, displacement-controlled.
+    """Quasi-static monotonic DEM pushover of a block or an assembly, displacement-controlled.
 
     A control spring (stiffness ``CONTROL_STIFFNESS m g / h``, critically damped) pulls the
     centroid toward +x (outward for a facade) at a constant rate, after a smooth start; the
@@ -121,15 +135,24 @@ def pushover(
     ``lambda_0 = (b/h)(1 + N/W)``, ``W = rho g b h`` (docs/pushover.md). Not traceable: call
     it outside ``jit``/``vmap``.
 
+    An :class:`rockjax.Assembly` is pushed by the same spring acting on the mass-weighted
+    mean horizontal displacement of its centroids, its force shared by the blocks in
+    proportion to their masses: a uniform horizontal body force, the load of
+    :func:`rockjax.collapse_multiplier` (docs/pushover.md, "Assemblies"). Its overburden and
+    top restraint are the assembly's own (``overburden`` and ``mode`` must stay at their
+    defaults).
+
     Args:
-        block: The block (``E`` sets the joint's stiffness, Section 2).
+        block: The block (``E`` sets the joint's stiffness, Section 2), or an
+            :class:`rockjax.Assembly`.
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade with its return wall at
             -x; it is pulled away from the wall).
         overburden: Vertical load at the top centre ``N`` [N/m] (per metre of length).
         beta: Stiffness-proportional damping [s], Eq. (1), to damp the contact vibrations;
             default :func:`rockjax.beta_dejong` (critical damping at ``omega_crit``).
         d_over_b: Top displacement to pull to, over ``b`` [-] (the rigid block's ``lambda``
-            reaches zero at ``d/b ~ 1``).
+            reaches zero at ``d/b ~ 1``); for an assembly, about this far (the rigid
+            mechanism's travel), ``b`` being block 0's.
         duration: Time of the pull [s]; default ``PULL_TIME / p``. Longer is more
             quasi-static.
         n_out: Number of output samples along the pull.
@@ -144,6 +167,20 @@ def pushover(
         ValueError: on invalid input, naming the argument, its unit and the fix.
     """
     check_choice("mode", mode, MODES)
+    if isinstance(block, Assembly):
+        if mode != "two_sided" or gap != 0.0:
+            raise ValueError(
+                f"mode={mode!r}, gap={gap!r}: an Assembly stands on the ground with its own top "
+                "support; leave mode='two_sided' and gap=0 (set Assembly.stack(top=, gap=))."
+            )
+        if overburden != 0.0:
+            raise ValueError(
+                f"overburden={overburden!r} N/m: an Assembly carries its own overburden; build "
+                "it with Assembly.stack(..., overburden=<N/m>) and leave overburden=0."
+            )
+        return _pushover_assembly(
+            block, beta, d_over_b, duration, n_out, joint, 50.0 if phi_deg is None else phi_deg
+        )
     check_nonnegative(
         "overburden",
         overburden,
@@ -278,3 +315,155 @@ def _pull(params, state0, control: _Control, dt, n_in: int, n_samples: int):
     _, (f, ax, theta, d) = jax.lax.scan(outer, (state0, jnp.zeros(())), length=n_samples)
     f = eqx.error_if(f, ~jnp.all(jnp.isfinite(f)), "rockjax.pushover: non-finite state")
     return f, ax, theta, d
+
+
+# ----------------------------------------------------------------------------- assemblies
+
+
+def _mechanisms(assembly: Assembly):
+    """The rigid mechanisms under a uniform horizontal body force (small rotation): per
+    mechanism its multiplier ``lambda`` [-] and the ratio of the control coordinate (the
+    mass-weighted mean centroid displacement) to the largest top-face displacement [-].
+
+    Free top: each sub-stack above interface ``k`` about that interface's +x toe (``k = 0``
+    is :func:`rockjax.collapse_multiplier`'s ``"stack"``, ``k = n - 1`` its ``"top"``).
+    Restrained top, two blocks: the ``"hinge"`` (both centroids move ``h_0 / 2`` per unit
+    rotation of block 0, whose top moves ``h_0``); more blocks: no closed form (NaN)."""
+    blocks = assembly.blocks
+    n = len(blocks)
+    m = [float(b.m) for b in blocks]
+    h = [float(b.h) for b in blocks]
+    xs = [float(x) for x in assembly.x_offset]
+    total = sum(m)
+    p_top = float(assembly.top_load)
+    if assembly.top == "restrained":
+        if n == 2:
+            return [(float(collapse_multiplier(assembly, "hinge")), 0.5)]
+        return [(math.nan, 0.5)]
+    base = [sum(h[:k]) for k in range(n)]
+    out = []
+    for k in range(n):
+        x_o = xs[k] + float(assembly.overlap(k)[1])
+        num = sum(m[j] * G * (x_o - xs[j]) for j in range(k, n)) + p_top * (x_o - xs[-1])
+        arm = sum(m[j] * (base[j] + 0.5 * h[j] - base[k]) for j in range(k, n))
+        out.append((num / (G * arm), arm / (sum(h) - base[k]) / total))
+    return out
+
+
+def _pushover_assembly(assembly, beta, d_over_b, duration, n_out, joint, phi_deg):
+    check_positive(
+        "d_over_b",
+        d_over_b,
+        "[-]",
+        "The top displacement to reach over b, e.g. 1.0.",
+        scalar=True,
+    )
+    if not (isinstance(n_out, int) and not isinstance(n_out, bool) and n_out >= 2):
+        raise ValueError(f"n_out (output samples) must be an integer >= 2; got n_out={n_out!r}.")
+    blocks = assembly.blocks
+    n = len(blocks)
+    if beta is None:
+        beta = min(float(beta_dejong(b)) for b in blocks)
+    b0 = float(blocks[0].b)
+    height = float(assembly.height)
+    # the slowest rocking frequency: a block, or the stack as one block
+    mono = Block(b=b0, h=height, length=blocks[0].length)
+    p = min([float(b.p) for b in blocks] + [float(mono.p)])
+    if duration is None:
+        duration = PULL_TIME / p
+    check_positive("duration", duration, "s", f"e.g. duration={PULL_TIME / p:.3g}.", scalar=True)
+    params = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg)
+    dt = stable_dt_assembly(assembly, beta, joint=joint)
+    masses = [float(b.m) for b in blocks]
+    total = sum(masses)
+    weight = total * G
+    mechs = _mechanisms(assembly)
+    lam_rigid, ratio = min(mechs, key=lambda v: v[0]) if n > 1 else mechs[0]
+    interval = duration / (n_out - 1)
+    n_settle = math.ceil(SETTLE_FRACTION * (n_out - 1))
+    t_settle = n_settle * interval
+    t_ramp = RAMP_FRACTION * duration
+    # stiff enough for the softest mechanism: one block alone on the control coordinate sees
+    # k (m_k / M)^2, which must beat its own softening 2 m_k g / h_k (as for one block)
+    k_c = (
+        CONTROL_STIFFNESS
+        * G
+        * total
+        * max(total / (masses[k] * float(blocks[k].h)) for k in range(n))
+    )
+    c_c = 2.0 * CONTROL_DAMPING * math.sqrt(k_c * total * total / min(masses))
+    n_in = max(1, math.ceil(interval / dt - 1e-9))
+    dt = interval / n_in
+    # the control point's travel: the rigid mechanism's, to move its top d_over_b * b0, plus
+    # the control spring's stretch at the rigid peak (a restrained wall's peak is high)
+    lam_peak = lam_rigid if math.isfinite(lam_rigid) else 0.0
+    x_end = d_over_b * b0 * ratio + lam_peak * weight / k_c
+    rate = x_end / (duration - 0.5 * t_ramp)
+    control = _Control(
+        k=jnp.asarray(k_c),
+        c=jnp.asarray(c_c),
+        rate=jnp.asarray(rate),
+        t_ramp=jnp.asarray(t_ramp),
+        t_settle=jnp.asarray(t_settle),
+        p_top=jnp.asarray(0.0),
+    )
+    share = jnp.asarray(masses) / total
+    state0 = initial_assembly_state(assembly, params, 0.0, joint)
+    force, inertia, theta, d = _pull_assembly(
+        params, state0, control, share, jnp.asarray(dt), jnp.asarray(n_in), n_out + n_settle
+    )
+    force = force - inertia
+    force, theta, d = force[n_settle:], theta[n_settle:], d[n_settle:]
+    lead = int(jnp.argmax(jnp.abs(theta[-1])))
+    return Capacity(
+        load_multiplier=force / weight,
+        d_over_b=jnp.max(d, axis=-1) / b0,
+        theta=theta[:, lead],
+        lambda_rigid=jnp.asarray(lam_rigid),
+        b=jnp.asarray(b0),
+        h=jnp.asarray(height),
+        overburden=jnp.asarray(float(assembly.overburden)),
+        t=jnp.arange(n_out) * interval,
+        theta_blocks=theta,
+    )
+
+
+@eqx.filter_jit
+def _pull_assembly(params, state0, control: _Control, share, dt, n_in, n_samples: int):
+    """Scan the assembly step under the control load: the control force [N], the blocks'
+    horizontal inertia ``sum m_k a_k`` [N], the rotations [rad] and the top face centres'
+    horizontal displacements [m] every ``n_in`` steps (sample 0 at ``t = 0``)."""
+    n = params.n
+    masses = params.m
+
+    def coordinate(st):
+        x = jnp.stack(st.x) - params.x0
+        vx = jnp.stack(st.vx)
+        return jnp.sum(share * x), jnp.sum(share * vx)
+
+    def load(st, t):
+        u, v = control.target(t)
+        xc, vc = coordinate(st)
+        f = control.k * (u - xc) + control.c * (v - vc)
+        return [(f * share[k], 0.0, 0.0) for k in range(n)], f
+
+    def inner(_, carry):
+        st, k = carry
+        ld, _ = load(st, k * dt)
+        st, _ = assembly_step(params, st, 0.0, 0.0, dt, load=ld)
+        return st, k + 1.0
+
+    def outer(carry, _):
+        st, k = carry
+        ld, f = load(st, k * dt)
+        new, acc = assembly_step(params, st, 0.0, 0.0, dt, load=ld)
+        inertia = sum(masses[j] * acc[j][0] for j in range(n))
+        top = jnp.stack([st.x[j] - params.x0[j] + 0.5 * params.h[j] * st.s[j] for j in range(n)])
+        out = (f, inertia, jnp.stack(st.theta), top)
+        # a traced trip count (a while loop): walls of one topology share one compilation
+        carry = jax.lax.fori_loop(1, n_in, inner, (new, k + 1.0))
+        return carry, out
+
+    _, (f, inertia, theta, d) = jax.lax.scan(outer, (state0, jnp.zeros(())), length=n_samples)
+    f = eqx.error_if(f, ~jnp.all(jnp.isfinite(f)), "rockjax.pushover: non-finite state")
+    return f, inertia, theta, d

@@ -81,6 +81,7 @@ def test_default_step_is_simulate_dems():
 # ----------------------------------------------------------------------------- two blocks
 
 
+@pytest.mark.slow  # (keeps the file under 60 s on a loaded machine)
 def test_glued_pair_rocks_like_one_tall_block():
     """Reference: rj.simulate_dem of the tall block (0.2 x 1.5 m). The pair 2 x (0.2 x 0.75 m)
     has the same ground joint (E of the bottom block halved, so E/h is the tall block's), a
@@ -370,3 +371,103 @@ def test_bad_input_is_refused_with_a_fix():
         collapse_multiplier(wall, "stack")
     with pytest.raises(ValueError, match="mechanism"):
         collapse_multiplier(wall, "sideways")
+
+
+# ----------------------------------------------------------------------------- in a building
+
+BUILDING_RTOL = 1e-3  # [max |theta|] a building of period 0.005 s under a 0.5 s pulse: its
+# floors' amplification ~ (0.005 / 0.5)^2 = 1e-4, the storey drift ~ 1e-6 m (measured 6e-5)
+FOLLOW_TOL = 1e-3  # [m] the top face centre against the floor drift, beyond the gap: the
+# restraint's penalty compliance and the top block's own rotation between samples
+IN_STOREY = Assembly.stack([rj.Block(b=0.2, h=1.0)] * 2, top="restrained", gap=1e-3, overburden=2e3)
+STOREY_PULSE = rj.GroundMotion.sine_cycle(pga=-2.0, period=0.5, dt=0.005, duration=1.0)
+
+
+def test_rigid_building_gives_the_ground_result():
+    """Reference: the wall on the ground (rj.simulate_assembly without a building). In a
+    building of period 0.005 s, floor 1's acceleration is the ground's and the drift nil, so
+    the wall of storey 2 (base on floor 1, top held by floor 2) moves as on the ground."""
+    from rockjax.building import ShearBuilding
+
+    wall, gm = IN_STOREY, rj.GroundMotion.sine_cycle(pga=-6.0, period=0.5, dt=0.005, duration=1.0)
+    ref = np.asarray(simulate_assembly(wall, gm, beta=1e-3).theta)
+    rigid = ShearBuilding.uniform(2, 3.0, period=0.005)
+    th = np.asarray(simulate_assembly(wall, gm, beta=1e-3, support_motion=rigid, storey=2).theta)
+    assert np.max(np.abs(ref)) > 0.05  # it rocked
+    assert np.max(np.abs(th - ref)) < BUILDING_RTOL * np.max(np.abs(ref))
+
+
+def test_top_floor_pushes_the_wall():
+    """Reference: kinematics of the top restraint. In a flexible building (period 0.5 s) the
+    first storey's drift (2 cm) far exceeds the gap (1 mm): the top face centre of the wall
+    of storey 1 follows floor 1 within the gap (plus FOLLOW_TOL), and on the ground (no
+    building) it stays within the gap of its rest position."""
+    from rockjax.building import ShearBuilding
+
+    wall, gm = IN_STOREY, STOREY_PULSE
+    soft = ShearBuilding.uniform(2, 3.0, period=0.5)
+    drift = np.asarray(soft.response(gm).displacement[0])
+    assert np.max(np.abs(drift)) > 10 * float(wall.gap)
+    r = simulate_assembly(wall, gm, beta=1e-3, support_motion=soft, storey=1)
+    assert not bool(r.overturned)
+    top = np.asarray(r.x[:, 1] + 0.5 * np.sin(r.theta[:, 1]))
+    assert np.max(np.abs(top - drift)) < float(wall.gap) + FOLLOW_TOL
+    ground = simulate_assembly(wall, gm, beta=1e-3)
+    top_g = np.asarray(ground.x[:, 1] + 0.5 * np.sin(ground.theta[:, 1]))
+    assert np.max(np.abs(top_g)) < float(wall.gap) + FOLLOW_TOL
+
+
+def test_in_building_bad_input_is_refused():
+    from rockjax.building import ShearBuilding
+
+    bldg = ShearBuilding.uniform(2, 3.0, period=0.3)
+    with pytest.raises(ValueError, match="storey"):
+        simulate_assembly(IN_STOREY, STOREY_PULSE, support_motion=bldg, storey=3)
+    with pytest.raises(ValueError, match="storey"):
+        simulate_assembly(IN_STOREY, STOREY_PULSE, storey=2)
+    with pytest.raises(ValueError, match="needs motion"):
+        simulate_assembly(IN_STOREY, duration=0.1, support_motion=bldg)
+
+
+@pytest.mark.slow
+def test_wall_on_the_roof_stands_on_the_top_floor():
+    """Reference: the top floor's absolute acceleration as a record
+    (ShearBuilding.floor_motions, the building module's own output): a free-top wall of
+    storey n + 1 (on the roof) under the ground motion and the building equals the wall on
+    the ground under that record (the same arithmetic)."""
+    from rockjax.building import ShearBuilding
+
+    wall = Assembly.stack([rj.Block(b=0.2, h=1.0)] * 2)
+    bldg = ShearBuilding.uniform(2, 3.0, period=0.3)
+    r = simulate_assembly(wall, STOREY_PULSE, beta=1e-3, support_motion=bldg, storey=3)
+    ref = simulate_assembly(wall, bldg.floor_motions(STOREY_PULSE)[1], beta=1e-3)
+    scale = float(jnp.max(jnp.abs(ref.theta)))
+    assert scale > 1e-3
+    assert float(jnp.max(jnp.abs(r.theta - ref.theta))) <= VMAP_RTOL * scale
+
+
+@pytest.mark.slow
+def test_vmap_in_a_building_equals_loop():
+    """Reference: a Python loop over the records (the same arithmetic)."""
+    from rockjax.building import ShearBuilding
+
+    wall = IN_STOREY
+    dt = stable_dt_assembly(wall, 1e-3)
+    bldg = ShearBuilding.uniform(2, 3.0, period=0.4)
+    ags = jnp.stack(
+        [
+            rj.GroundMotion.sine_cycle(pga=a, period=0.3, dt=0.01, duration=0.5).ag
+            for a in (-2.0, 3.0)
+        ]
+    )
+
+    def run(ag):
+        motion = rj.GroundMotion(ag=ag, dt=0.01)
+        return simulate_assembly(
+            wall, motion, beta=1e-3, dt=dt, support_motion=bldg, storey=2
+        ).theta
+
+    batch = jax.vmap(run)(ags)
+    loop = jnp.stack([run(a) for a in ags])
+    assert float(jnp.max(jnp.abs(batch - loop))) <= VMAP_RTOL * float(jnp.max(jnp.abs(loop)))
+    assert float(jnp.max(jnp.abs(loop))) > 1e-4

@@ -783,3 +783,17 @@ def test_simulate_dem_runs_an_assembly():
     )
     with pytest.raises(ValueError, match="own supports"):
         rj.simulate_dem(rj.Assembly.stack([block]), gm, beta=beta, mode="one_sided")
+
+
+def test_simulate_dem_places_an_assembly_in_a_building():
+    # the routing passes support_motion/storey to simulate_assembly (whose physics is tested
+    # in tests/test_assembly.py); a single block refuses them with the fix
+    wall = rj.Assembly.stack([rj.Block(b=0.23, h=1.5)] * 2, top="restrained", overburden=5e3)
+    bldg = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.3)
+    gm = rj.GroundMotion.ricker(pga=2.0, period=0.5)
+    beta = float(rj.beta_dejong(rj.Block(b=0.23, h=1.5)))
+    a = rj.simulate_dem(wall, gm, beta=beta, support_motion=bldg, storey=2)
+    b = rj.simulate_assembly(wall, gm, beta=beta, support_motion=bldg, storey=2)
+    np.testing.assert_array_equal(np.asarray(a.theta), np.asarray(b.theta))
+    with pytest.raises(ValueError, match="Assembly"):
+        rj.simulate_dem(rj.Block(b=0.23, h=1.5), gm, beta=beta, support_motion=bldg, storey=1)

@@ -208,3 +208,100 @@ def test_facade_pulled_off_its_wall_is_a_parapet(paper_wall):
 def test_bad_input_is_refused(kwargs, match):
     with pytest.raises(ValueError, match=match):
         pushover(rj.Block(**PAPER_WALL), **kwargs)
+
+
+# ----------------------------------------------------------------------------- assemblies
+
+# Walls of two blocks on corner contacts (whose uplift is sharp, so the peak is the rigid
+# limit's) ten times stiffer than the paper's joints; pulled to d/b = 0.05 (past the peak)
+# over 20 / p of the whole wall, 40 samples. References: the rigid mechanisms' multipliers
+# by virtual work, written out here for these geometries (and rockjax.collapse_multiplier).
+ASM_E = 1.8e10
+ASM_KW = dict(joint=rj.Joint(n_sub=2), d_over_b=0.05, n_out=40)
+ASM_PEAK_RTOL = 0.02  # the brief's limit; measured -0.01 % (stack), +0.5 % (top: the top
+# block's inertia where it starts to rock under the still-rising pull), +0.07 % (hinge)
+ASM_RIGID_TOL = 0.02  # [-] of lambda_0: past the peak, the stack against the one-block curve
+ASM_TRAVEL_RTOL = 0.15  # the pull's end d/b against the requested 0.05 (elastic share)
+
+
+def _asm_pushover(wall):
+    mono = rj.Block(b=0.2, h=2.0)  # the wall as one block: its p sets the pull's duration
+    return pushover(wall, duration=20.0 / float(mono.p), **ASM_KW)
+
+
+@pytest.fixture(scope="module")
+def asm_free():
+    """The stack mechanism (two equal blocks) and the top mechanism (a narrow block on a
+    wide one); one compilation serves both."""
+    from rockjax.assembly import Assembly
+
+    stack = Assembly.stack([rj.Block(b=0.2, h=1.0, E=ASM_E)] * 2)
+    top = Assembly.stack([rj.Block(b=0.4, h=1.0, E=ASM_E), rj.Block(b=0.15, h=1.0, E=ASM_E)])
+    return {"stack": (stack, _asm_pushover(stack)), "top": (top, _asm_pushover(top))}
+
+
+def test_assembly_capacity_is_float64_and_shaped(asm_free):
+    _, cap = asm_free["stack"]
+    assert isinstance(cap, Capacity)
+    for name in ("load_multiplier", "d_over_b", "theta", "t"):
+        arr = getattr(cap, name)
+        assert arr.shape == (40,) and arr.dtype == np.float64
+    assert cap.theta_blocks.shape == (40, 2) and cap.theta_blocks.dtype == np.float64
+    assert float(cap.d_over_b[-1]) == pytest.approx(0.05, rel=ASM_TRAVEL_RTOL)
+
+
+@pytest.mark.parametrize("case", ["stack", "top"])
+def test_assembly_pushover_peaks_at_the_rigid_mechanism(asm_free, case):
+    """Reference: virtual work. Stack (two equal 0.2 x 1.0 m blocks about the base toe):
+    lambda_0 = b / (2 h) = 0.1. Top (a 0.15 x 1.0 m block on a 0.4 x 1.0 m one, about the
+    top block's toe on the bed joint): lambda_0 = b_1 / h_1 = 0.15 (below the stack's
+    (W_0 0.2 + W_1 0.2) / (W_0 0.5 + W_1 1.5) = 0.16 with W_1 = 0.375 W_0)."""
+    from rockjax.assembly import collapse_multiplier
+
+    wall, cap = asm_free[case]
+    lam0 = {"stack": 0.2 / 2.0, "top": 0.15 / 1.0}[case]
+    assert float(collapse_multiplier(wall, case)) == pytest.approx(lam0, rel=1e-12)
+    assert float(cap.lambda_rigid) == pytest.approx(lam0, rel=1e-12)
+    lam = np.asarray(cap.load_multiplier)
+    assert abs(lam.max() / lam0 - 1) < ASM_PEAK_RTOL, lam.max() / lam0
+    th = np.asarray(cap.theta_blocks)
+    if case == "stack":  # one rigid body: both blocks rotate alike, the curve is b x 2h's
+        assert np.max(np.abs(th[:, 1] - th[:, 0])) < 0.02 * np.max(np.abs(th))
+        theta = th[-1, 0]
+        rigid = _rigid_lambda(theta, 0.2, 2.0)
+        assert abs(lam[-1] - rigid) < ASM_RIGID_TOL * lam0, (lam[-1], rigid)
+    else:  # the top block alone: the lower one stays put
+        assert np.max(np.abs(th[:, 0])) < 0.02 * np.max(np.abs(th[:, 1]))
+
+
+def test_assembly_pushover_restrained_hinge():
+    """Reference: virtual work for the two-block hinge (block 0 about its ground toe, block
+    1 about the top restraint, the hinge at the bed joint's heel) with an overburden P:
+    lambda_0 = (b / h)(2 + 1.5 P / W) for equal blocks b x h of weight W; block 1 rotates
+    backward by h_0 / h_1 times block 0's rotation."""
+    from rockjax.assembly import Assembly, collapse_multiplier
+
+    b, h, p = 0.2, 1.0, 2e3
+    blk = rj.Block(b=b, h=h, E=ASM_E)
+    wall = Assembly.stack([blk] * 2, top="restrained", overburden=p)
+    w = float(blk.m * G)
+    lam0 = b / h * (2 + 1.5 * p / w)
+    assert float(collapse_multiplier(wall, "hinge")) == pytest.approx(lam0, rel=1e-12)
+    cap = _asm_pushover(wall)
+    assert float(cap.lambda_rigid) == pytest.approx(lam0, rel=1e-12)
+    lam = np.asarray(cap.load_multiplier)
+    assert abs(lam.max() / lam0 - 1) < ASM_PEAK_RTOL, lam.max() / lam0
+    th = np.asarray(cap.theta_blocks)
+    assert th[-1, 0] > 0 and th[-1, 1] == pytest.approx(-th[-1, 0], rel=0.05)
+
+
+def test_assembly_pushover_bad_input_is_refused():
+    from rockjax.assembly import Assembly
+
+    wall = Assembly.stack([rj.Block(b=0.2, h=1.0)] * 2)
+    with pytest.raises(ValueError, match="overburden"):
+        pushover(wall, overburden=1e3)
+    with pytest.raises(ValueError, match="mode"):
+        pushover(wall, mode="one_sided")
+    with pytest.raises(ValueError, match="d_over_b"):
+        pushover(wall, d_over_b=-1.0)
