@@ -1137,6 +1137,7 @@ def simulate_dem(
             f"wall_motion (a moving return wall) needs mode='one_sided' (a facade against its "
             f"return wall); got mode={mode!r}. Pass mode='one_sided', or drop wall_motion."
         )
+    _check_motion_type(motion)
     n_record = None if motion is None else np.shape(motion.ag)[0]
     ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
     wall = None
@@ -1288,6 +1289,15 @@ def _simulate_assembly(
     return simulate_assembly(assembly, motion, **kw)
 
 
+def _check_motion_type(motion) -> None:
+    if motion is not None and not isinstance(motion, GroundMotion):
+        raise ValueError(
+            f"motion must be a rockjax.GroundMotion (or None for free rocking); got "
+            f"{type(motion).__name__}. Wrap an acceleration array as "
+            "rj.GroundMotion(ag=<m/s^2>, dt=<s>) or rj.GroundMotion.from_g(<g>, dt)."
+        )
+
+
 def _fmt(x):
     v = concrete(x)
     return "(traced)" if v is None else f"{float(v):.4g}"
@@ -1349,12 +1359,7 @@ def _prepare_motion(motion, duration, save_dt):
         dt_out = DEFAULT_SAVE_DT if save_dt is None else float(save_dt)
         check_samples(duration, dt_out, dt_name="save_dt")
         motion = GroundMotion.zeros(duration, dt_out)
-    elif not isinstance(motion, GroundMotion):
-        raise ValueError(
-            f"motion must be a rockjax.GroundMotion (or None for free rocking); got "
-            f"{type(motion).__name__}. Wrap an acceleration array as "
-            "rj.GroundMotion(ag=<m/s^2>, dt=<s>) or rj.GroundMotion.from_g(<g>, dt)."
-        )
+    _check_motion_type(motion)
     motion.check_finite()
     dt_out = motion.dt
     # NumPy for concrete records (no eager JAX dispatch); jnp when the record is traced (vmap)
