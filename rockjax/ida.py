@@ -58,7 +58,7 @@ from ._checks import check_choice, check_nonnegative, check_positive, check_scal
 from ._types import ScalarLike
 from .assembly import Assembly
 from .block import Block
-from .building import ShearBuilding
+from .building import ShearBuilding, wall_top_motion
 from .constants import G
 from .contact import Joint
 from .dem import simulate_dem, stable_dt
@@ -479,6 +479,8 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
     }
     bar = _progress.bar(progress, total=n_rec * n_scale, desc="rockjax.ida", unit="run")
     seen: set[float] = set()
+    config = {k: v for k, v in plan.config.items() if k != "wall_motion"}
+    walls: dict[float, tuple] = {}
     for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
         # the first chunk of a dt group compiles: say so while it runs
         first = g.dt not in seen
@@ -492,7 +494,14 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
         local, j = np.divmod(flat, n_scale)
         ag, ag_v = place.replicated(g.ag), place.replicated(g.ag_v)
         rec_k, scale_k = place.split(local.astype(np.int32)), place.split(plan.scales[j])
-        out = _run_chunk(plan.block, ag, ag_v, rec_k, scale_k, dt_rec=g.dt, **plan.config)
+        wall = None
+        if plan.config["wall_motion"] is not None:
+            # the building is linear: its wall motion under a scaled record is the scaled
+            # wall motion, so it is solved once per record, not in every run
+            if g.dt not in walls:
+                walls[g.dt] = _wall_histories(plan.config["wall_motion"], g.ag, g.dt, plan.block.h)
+            wall = tuple(place.replicated(w) for w in walls[g.dt])
+        out = _run_chunk(plan.block, ag, ag_v, rec_k, scale_k, wall, dt_rec=g.dt, **config)
         out = jax.device_get(out)
         for key in grids:
             grids[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
@@ -701,12 +710,24 @@ def _group_records(records, tail: float, t_end: float | None = None):
 
 
 @eqx.filter_jit
+def _wall_histories(building, ag, dt: float, height):
+    """``(u_top, v_top)`` of the return wall at ``height`` for every record of a group at scale
+    1, shape (record, time) (:func:`rockjax.wall_top_motion`)."""
+
+    def one(a):
+        return wall_top_motion(building, GroundMotion(ag=a, dt=dt), height)
+
+    return jax.vmap(one)(ag)
+
+
+@eqx.filter_jit
 def _run_chunk(
     block,
     ag,
     ag_v,
     rec_idx,
     scale,
+    wall,
     *,
     model,
     mode,
@@ -715,14 +736,15 @@ def _run_chunk(
     gap,
     joint,
     law,
-    wall_motion,
     dt_rec,
     dt_bound,
 ):
-    """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (vmapped)."""
+    """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (vmapped); ``wall``:
+    None, or the return wall's ``(u_top, v_top)`` per record at scale 1, scaled likewise."""
 
     def one(i, s):
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
+        wall_motion = None if wall is None else (s * wall[0][i], s * wall[1][i])
         if isinstance(block, Assembly):
             r = simulate_assembly(block, motion, beta=beta, dt=dt_bound, joint=joint, throw=False)
             top = block.blocks[-1]
