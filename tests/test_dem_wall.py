@@ -202,6 +202,7 @@ def _central_difference(f, x):
     return (float(f(x + h)) - float(f(x - h))) / (2 * h)
 
 
+@pytest.mark.slow  # ~15-25 s of compilation; DEM jvp in beta is also tested in tests/test_dem.py
 def test_jvp_wrt_beta_with_a_moving_wall(facade):
     """Forward mode through the moving-wall run matches central differences."""
     f = _wall_push_objective(facade)

@@ -425,6 +425,7 @@ def test_assembly_of_one_block_is_the_block_ida():
     assert one.attrs["n_blocks"] == 1
 
 
+@pytest.mark.slow  # the one-block test above covers the routing; this adds two blocks
 def test_assembly_ida_equals_single_runs():
     wall = rj.Assembly.stack([rj.Block(b=0.23, h=1.5), rj.Block(b=0.23, h=1.5)])
     beta = float(rj.beta_dejong(rj.Block(b=0.23, h=1.5)))
