@@ -1139,7 +1139,7 @@ def simulate_dem(
         )
     _check_motion_type(motion)
     n_record = None if motion is None else np.shape(motion.ag)[0]
-    ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
+    ag, ag_v, dt_out = prepare_motion(motion, duration, save_dt)
     wall = None
     if mode == "one_sided":
         wall = _wall_arrays(wall_motion, motion, block, ag, dt_out, n_record)
@@ -1346,7 +1346,11 @@ def _concrete_steps(params, block, beta_max, joint, mode, dt, accuracy):
         ) from None
 
 
-def _prepare_motion(motion, duration, save_dt):
+def prepare_motion(motion, duration, save_dt):
+    """``(ag, ag_v, dt_out)``: a checked record as arrays [m/s^2], [m/s^2], [s], zero-padded or
+    cut to ``duration`` [s]; free motion (``motion=None``) is zeros every ``save_dt`` [s]
+    (default :data:`DEFAULT_SAVE_DT`). NumPy arrays for a concrete record, jnp when traced.
+    Shared by :func:`simulate_dem` and :func:`rockjax.simulate_assembly`."""
     if motion is None:
         if duration is None:
             raise ValueError(

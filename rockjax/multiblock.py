@@ -35,7 +35,6 @@ from ._checks import (
     check_choice,
     check_nonnegative,
     check_positive,
-    check_samples,
     check_scalar,
     concrete,
 )
@@ -44,7 +43,14 @@ from .block import Block
 from .building import ShearBuilding
 from .constants import G
 from .contact import Joint, normal_force, shear_force
-from .dem import DT_ACCURACY, DT_ACCURACY_SUB, DT_SAFETY, dem_params, initial_state
+from .dem import (
+    DT_ACCURACY,
+    DT_ACCURACY_SUB,
+    DT_SAFETY,
+    dem_params,
+    initial_state,
+    prepare_motion,
+)
 from .motion import GroundMotion
 from .response import (
     STATUS_BAD_INPUT,
@@ -53,9 +59,6 @@ from .response import (
     STATUS_OK,
     STATUS_UNSTABLE,
 )
-
-DEFAULT_SAVE_DT = 0.002
-"""Output interval [s] for free motion (no record)."""
 
 SAVE_OPTIONS = ("energy",)
 
@@ -1059,7 +1062,7 @@ def simulate_assembly(
         check_choice("save entry", key, SAVE_OPTIONS)
     p = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg)
     _check_theta0(theta0, assembly)
-    ag, ag_v, dt_out = _prepare_motion(motion, duration, save_dt)
+    ag, ag_v, dt_out = prepare_motion(motion, duration, save_dt)
     ag, top = _in_building(support_motion, storey, assembly, motion, ag, dt_out)
     accuracy = _check_accuracy(accuracy, joint)
     limit, dt_default = _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, phi_deg)
@@ -1172,34 +1175,3 @@ def _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, phi_deg):
             "time step cannot be chosen automatically. Pass dt=stable_dt_assembly(assembly, "
             "beta_max) computed outside the transform, or beta_max=<largest beta> [s]."
         ) from None
-
-
-def _prepare_motion(motion, duration, save_dt):
-    if motion is None:
-        if duration is None:
-            raise ValueError(
-                "Free motion (motion=None) needs duration=<seconds>, e.g. duration=5.0."
-            )
-        dt_out = DEFAULT_SAVE_DT if save_dt is None else float(save_dt)
-        check_positive("save_dt", dt_out, "s", f"e.g. save_dt={DEFAULT_SAVE_DT}.")
-        check_samples(duration, dt_out, dt_name="save_dt")
-        motion = GroundMotion.zeros(duration, dt_out)
-    elif not isinstance(motion, GroundMotion):
-        raise ValueError(
-            f"motion must be a rockjax.GroundMotion (or None for free motion); got "
-            f"{type(motion).__name__}. Wrap an acceleration array as "
-            "rj.GroundMotion(ag=<m/s^2>, dt=<s>)."
-        )
-    motion.check_finite()
-    dt_out = motion.dt
-    xp = np if concrete(motion.ag) is not None else jnp
-    ag = xp.asarray(motion.ag, float)
-    ag_v = xp.zeros_like(ag) if motion.ag_v is None else xp.asarray(motion.ag_v, float)
-    if duration is not None:
-        n = check_samples(duration, dt_out, dt_name="the record's dt")
-        if n < 2:
-            raise ValueError(f"duration={duration} s is shorter than two samples of {dt_out} s.")
-        pad = max(0, n - ag.shape[0])
-        ag = xp.pad(ag, (0, pad))[:n]
-        ag_v = xp.pad(ag_v, (0, pad))[:n]
-    return ag, ag_v, dt_out
