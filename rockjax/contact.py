@@ -148,3 +148,34 @@ def shear_force(fs_old, slip_rate, dt, k_s, f_el, tan_phi, beta, frac=None):
         frac = jnp.where(f_el > 0, 1.0, 0.0)
     f = fs_new - frac * beta * k_s * slip_rate
     return f, fs_new
+
+
+# ------------------------------------------------------- the face law's closed part (geometry)
+# The integrated face law (docs/theory.md, "Integrated face contact") works on a penetration
+# that is affine along a face; these helpers find where it is closed and cut the face there.
+# rockjax.dem (block on the ground) and rockjax.multiblock (two blocks) share them.
+
+
+def crossing(lo, hi, d_lo, d_hi):
+    """Where the affine field with end values ``d_lo``, ``d_hi`` crosses zero on [lo, hi]
+    (``lo`` when it does not)."""
+    cross = d_lo * d_hi < 0.0
+    den = jnp.where(cross, d_lo - d_hi, 1.0)
+    return lo + (hi - lo) * jnp.where(cross, d_lo / den, 0.0)
+
+
+def closed_interval(lo, hi, d_lo, d_hi):
+    """The interval of [lo, hi] where the affine field is > 0 (empty: ``ca == cb``)."""
+    z = crossing(lo, hi, d_lo, d_hi)
+    ca = jnp.where(d_lo > 0.0, lo, z)
+    cb = jnp.where(d_hi > 0.0, hi, z)
+    return ca, jnp.maximum(cb, ca)
+
+
+def insert_cut(cuts, z):
+    """``cuts`` (sorted, ends fixed) with the point ``z`` (in [lo, hi]) inserted in order."""
+    out = []
+    for x in cuts[1:-1]:  # one compare-exchange pass: carry the larger value on
+        out.append(jnp.minimum(x, z))
+        z = jnp.maximum(x, z)
+    return [cuts[0], *out, z, cuts[-1]]

@@ -58,7 +58,14 @@ from .assembly import Assembly
 from .block import Block
 from .compilation import bucket_length, is_traced, notice_once, pad_to
 from .constants import G
-from .contact import Joint, normal_force, shear_force
+from .contact import (
+    Joint,
+    closed_interval,
+    crossing,
+    insert_cut,
+    normal_force,
+    shear_force,
+)
 from .motion import GroundMotion
 from .response import (
     STATUS_BAD_INPUT,
@@ -468,32 +475,6 @@ def _linear_integral(a, b, d_a, d_b):
     return 0.5 * (b - a) * (d_a + d_b)
 
 
-def _crossing(lo, hi, d_lo, d_hi):
-    """Where the linear field with end values ``d_lo``, ``d_hi`` crosses zero on [lo, hi]
-    (``lo`` when it does not)."""
-    cross = d_lo * d_hi < 0.0
-    den = jnp.where(cross, d_lo - d_hi, 1.0)
-    return lo + (hi - lo) * jnp.where(cross, d_lo / den, 0.0)
-
-
-def _closed_interval(lo, hi, d_lo, d_hi):
-    """The interval of [lo, hi] where the linear field is > 0 (empty: ``ca == cb``)."""
-    z = _crossing(lo, hi, d_lo, d_hi)
-    ca = jnp.where(d_lo > 0.0, lo, z)
-    cb = jnp.where(d_hi > 0.0, hi, z)
-    return ca, jnp.maximum(cb, ca)
-
-
-def _insert_cut(cuts, z):
-    """``cuts`` (sorted, ends fixed) with the point ``z`` (in [lo, hi]) inserted in order."""
-    inner = list(cuts[1:-1])
-    out = []
-    for x in inner:  # one compare-exchange pass: carry the larger value on
-        out.append(jnp.minimum(x, z))
-        z = jnp.maximum(x, z)
-    return [cuts[0], *out, z, cuts[-1]]
-
-
 def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion=None):
     """Integrated contact of one face on a continuous Winkler joint (normal and shear
     stiffness per unit length ``kn_line``, ``ks_line``).
@@ -546,12 +527,12 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
     if params.onset == "sub_step":
         hw = 0.5 * dt
         r_lo, r_hi = ends[0][3], ends[1][3]
-        z1 = _crossing(lo, hi, d_lo - hw * r_lo, d_hi - hw * r_hi)
-        z2 = _crossing(lo, hi, d_lo + hw * r_lo, d_hi + hw * r_hi)
+        z1 = crossing(lo, hi, d_lo - hw * r_lo, d_hi - hw * r_hi)
+        z2 = crossing(lo, hi, d_lo + hw * r_lo, d_hi + hw * r_hi)
         cuts = [lo, jnp.minimum(z1, z2), jnp.maximum(z1, z2), hi]
         dt_onset = dt
     else:
-        cuts = [lo, _crossing(lo, hi, d_lo, d_hi), hi]
+        cuts = [lo, crossing(lo, hi, d_lo, d_hi), hi]
         dt_onset = None
     kn, ks, beta = params.kn_line, params.ks_line, params.beta
     clipped = params.dashpot == "clipped"
@@ -559,7 +540,7 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
         # the clipped law's kink: where the closed part's total force k (delta + beta delta_dot),
         # linear in t, changes sign; the pieces either side are then smooth
         q_lo, q_hi = d_lo + beta * ends[0][3], d_hi + beta * ends[1][3]
-        cuts = _insert_cut(cuts, _crossing(lo, hi, q_lo, q_hi))
+        cuts = insert_cut(cuts, crossing(lo, hi, q_lo, q_hi))
     fn = fn_el = mom_n = f_rx = 0.0
     n0 = n1 = n2 = 0.0  # integrals of frac, frac * arm_n, frac * arm_n^2
     s0 = s1 = s2 = 0.0  # integrals of frac, frac * arm_s, frac * arm_s^2
@@ -585,8 +566,8 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
     (f_s,) = hist
     if FACE_SHEAR_RELEASE != "none":
         o_lo, o_hi = d_lo - dt * ends[0][3], d_hi - dt * ends[1][3]
-        ca_old, cb_old = _closed_interval(lo, hi, o_lo, o_hi)
-        ca, cb = _closed_interval(lo, hi, d_lo, d_hi)
+        ca_old, cb_old = closed_interval(lo, hi, o_lo, o_hi)
+        ca, cb = closed_interval(lo, hi, d_lo, d_hi)
         ka, kb = jnp.maximum(ca, ca_old), jnp.minimum(cb, cb_old)
         kb = jnp.maximum(kb, ka)
         if FACE_SHEAR_RELEASE == "pressure":
@@ -751,7 +732,7 @@ def _face_energy(params: DemParams, state: DemState, c, s, u_top=None):
             def pen(t):
                 return -_point_kinematics(state, t, -0.5 * params.h, c, s)[3]
 
-        ca, cb = _closed_interval(lo, hi, pen(lo), pen(hi))
+        ca, cb = closed_interval(lo, hi, pen(lo), pen(hi))
         mid, half = 0.5 * (ca + cb), 0.5 * (cb - ca)
         for xg in _GAUSS_X:
             e = e + 0.5 * params.kn_line * half * jnp.maximum(pen(mid + half * xg), 0.0) ** 2

@@ -42,7 +42,14 @@ from .assembly import Assembly
 from .block import Block
 from .building import ShearBuilding
 from .constants import G
-from .contact import Joint, normal_force, shear_force
+from .contact import (
+    Joint,
+    closed_interval,
+    crossing,
+    insert_cut,
+    normal_force,
+    shear_force,
+)
 from .dem import (
     DT_ACCURACY,
     DT_ACCURACY_SUB,
@@ -398,30 +405,6 @@ def _solve_tridiagonal(diag, lower, rhs):
 # ----------------------------------------------------------------------------- contact
 
 
-def _crossing(lo, hi, d_lo, d_hi):
-    """Where the affine field with end values ``d_lo``, ``d_hi`` crosses zero on [lo, hi]
-    (``lo`` when it does not)."""
-    cross = d_lo * d_hi < 0.0
-    den = jnp.where(cross, d_lo - d_hi, 1.0)
-    return lo + (hi - lo) * jnp.where(cross, d_lo / den, 0.0)
-
-
-def _closed(lo, hi, d_lo, d_hi):
-    """The sub-interval of [lo, hi] where the affine field is > 0 (empty when equal ends)."""
-    z = _crossing(lo, hi, d_lo, d_hi)
-    ca = jnp.where(d_lo > 0.0, lo, z)
-    cb = jnp.where(d_hi > 0.0, hi, z)
-    return ca, jnp.maximum(cb, ca)
-
-
-def _sorted_insert(cuts, z):
-    out, inner = [], cuts[1:-1]
-    for x in inner:
-        out.append(jnp.minimum(x, z))
-        z = jnp.maximum(x, z)
-    return [cuts[0], *out, z, cuts[-1]]
-
-
 def _pair_kinematics(p: AssemblyParams, st: AssemblyState, k: int):
     """The geometry of interface ``k`` as a function of the face coordinate ``t``: returns
     ``kin(t) -> (rx_u, ry_u, dx, dy, delta, delta_dot, slip)`` (arms of the point from the
@@ -507,13 +490,13 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt):
         kn, ks = p.kn_line[k], p.ks_line[k]
         if dt_onset is not None:
             hw = 0.5 * dt
-            z1 = _crossing(lo, hi, d_lo - hw * r_lo, d_hi - hw * r_hi)
-            z2 = _crossing(lo, hi, d_lo + hw * r_lo, d_hi + hw * r_hi)
+            z1 = crossing(lo, hi, d_lo - hw * r_lo, d_hi - hw * r_hi)
+            z2 = crossing(lo, hi, d_lo + hw * r_lo, d_hi + hw * r_hi)
             cuts = [lo, jnp.minimum(z1, z2), jnp.maximum(z1, z2), hi]
         else:
-            cuts = [lo, _crossing(lo, hi, d_lo, d_hi), hi]
+            cuts = [lo, crossing(lo, hi, d_lo, d_hi), hi]
         if clipped:
-            cuts = _sorted_insert(cuts, _crossing(lo, hi, d_lo + beta * r_lo, d_hi + beta * r_hi))
+            cuts = insert_cut(cuts, crossing(lo, hi, d_lo + beta * r_lo, d_hi + beta * r_hi))
         pts = []
         for a, b_ in zip(cuts[:-1], cuts[1:]):
             mid, half = 0.5 * (a + b_), 0.5 * (b_ - a)
@@ -572,8 +555,8 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt):
         (f_s,) = st.fs[k]
         # the resultant shear spring keeps the share of its closed length that stays closed
         # (rockjax.dem's "uniform" release); the previous penetration is delta - dt delta_dot
-        ca_old, cb_old = _closed(lo, hi, d_lo - dt * r_lo, d_hi - dt * r_hi)
-        ca, cb = _closed(lo, hi, d_lo, d_hi)
+        ca_old, cb_old = closed_interval(lo, hi, d_lo - dt * r_lo, d_hi - dt * r_hi)
+        ca, cb = closed_interval(lo, hi, d_lo, d_hi)
         ka, kb = jnp.maximum(ca, ca_old), jnp.minimum(cb, cb_old)
         kb = jnp.maximum(kb, ka)
         whole, kept = cb_old - ca_old, kb - ka
@@ -775,7 +758,7 @@ def _energy(p: AssemblyParams, st: AssemblyState, vel):
         lo, hi = p.lo[k], p.hi[k]
         d_lo, d_hi = kin(lo)[4], kin(hi)[4]
         if p.face:
-            ca, cb = _closed(lo, hi, d_lo, d_hi)
+            ca, cb = closed_interval(lo, hi, d_lo, d_hi)
             mid, half = 0.5 * (ca + cb), 0.5 * (cb - ca)
             for xg in _GAUSS:
                 tau = (mid + half * xg - lo) / (hi - lo)
