@@ -40,8 +40,8 @@ class Response(eqx.Module):
         theta: Rotation [rad] (positive about the +x bottom corner).
         theta_dot: Angular velocity [rad/s].
         d: Horizontal displacement of the top centre relative to the base [m].
-        overturned: True if ``|theta|`` passed ``eta`` while moving outward; the state is frozen
-            from then on.
+        overturned: True if ``|theta|`` passed ``eta`` while moving outward (with a three-branch
+            ``law``: the law's zero-capacity rotation); the state is frozen from then on.
         status: 0 if the run is valid, else a code in ``rockjax.response.STATUS_MESSAGES``.
         theta_max: Largest ``|theta|`` reached over the run, including between samples [rad].
         eta: Slenderness angle of the block [rad], to normalise ``theta``.
