@@ -141,6 +141,7 @@ def test_runner_matches_ida(study, model):
     assert col.any() and (~col).any()  # the grid brackets the capacities
 
 
+@pytest.mark.slow  # ~30 s; tests/test_ida.py checks the IDA's wall motion against single runs
 def test_facade_on_moving_walls_matches_ida(study):
     """A three-branch facade on return walls moving with a building: the study's precomputed,
     scaled wall motion gives rj.ida(..., wall_motion=bldg)'s results, which compute the

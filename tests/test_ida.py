@@ -346,6 +346,7 @@ def test_three_branch_with_the_rigid_law_is_the_housner_ida():
     assert tb.attrs["model"] == "three_branch" and tb.attrs["law_Delta_u"] == 1.0
 
 
+@pytest.mark.slow  # the rigid-law test above covers the routing
 def test_three_branch_law_changes_the_ida():
     # a law with a flexible first branch and a shorter Delta_u lowers the capacity
     block = rj.Block(b=0.25, h=3.0)
