@@ -167,6 +167,15 @@ def pushover(
         ValueError: on invalid input, naming the argument, its unit and the fix.
     """
     check_choice("mode", mode, MODES)
+    check_positive(
+        "d_over_b",
+        d_over_b,
+        "[-]",
+        "The top displacement to reach over b, e.g. 1.0.",
+        scalar=True,
+    )
+    if not (isinstance(n_out, int) and not isinstance(n_out, bool) and n_out >= 2):
+        raise ValueError(f"n_out (output samples) must be an integer >= 2; got n_out={n_out!r}.")
     if isinstance(block, Assembly):
         if mode != "two_sided" or gap != 0.0:
             raise ValueError(
@@ -188,15 +197,6 @@ def pushover(
         "The load per metre of wall length at the top.",
         scalar=True,
     )
-    check_positive(
-        "d_over_b",
-        d_over_b,
-        "[-]",
-        "The top displacement to reach over b, e.g. 1.0.",
-        scalar=True,
-    )
-    if not (isinstance(n_out, int) and not isinstance(n_out, bool) and n_out >= 2):
-        raise ValueError(f"n_out (output samples) must be an integer >= 2; got n_out={n_out!r}.")
     if beta is None:
         beta = float(beta_dejong(block))
     p = float(block.p)
@@ -351,15 +351,6 @@ def _mechanisms(assembly: Assembly):
 
 
 def _pushover_assembly(assembly, beta, d_over_b, duration, n_out, joint, phi_deg):
-    check_positive(
-        "d_over_b",
-        d_over_b,
-        "[-]",
-        "The top displacement to reach over b, e.g. 1.0.",
-        scalar=True,
-    )
-    if not (isinstance(n_out, int) and not isinstance(n_out, bool) and n_out >= 2):
-        raise ValueError(f"n_out (output samples) must be an integer >= 2; got n_out={n_out!r}.")
     blocks = assembly.blocks
     n = len(blocks)
     if beta is None:
