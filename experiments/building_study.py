@@ -344,18 +344,23 @@ def run_case(block, model, mode, beta, groups, base, walls, cfg, law=None) -> di
                         runs[r][k] = np.concatenate([runs[r][k], arr[m]])
         for r in range(nr):
             sc, co, stt, pk = runs[r]
-            cap, n_int = lowest_collapse(sc, co, stt)
-            per_rec[g.names[r]] = dict(
-                scales=sc,
-                collapse=co,
-                status=stt,
-                peak=pk,
-                capacity_g=cap,
-                n_intervals=n_int,
-                n_failed=int(np.sum(stt != 0)),
-                at_lowest_scale=bool(cap == coarse[0]),
-            )
+            per_rec[g.names[r]] = record_result(sc, co, stt, pk, coarse)
     return per_rec
+
+
+def record_result(scales, collapse, status, peak, coarse) -> dict:
+    """One record's runs of a case (sorted by scale) and its capacity [g]."""
+    cap, n_int = lowest_collapse(scales, collapse, status)
+    return dict(
+        scales=scales,
+        collapse=collapse,
+        status=status,
+        peak=peak,
+        capacity_g=cap,
+        n_intervals=n_int,
+        n_failed=int(np.sum(status != 0)),
+        at_lowest_scale=bool(cap == coarse[0]),
+    )
 
 
 def law_array(law) -> np.ndarray:
@@ -389,17 +394,7 @@ def load_case(path: pathlib.Path, coarse, law=None) -> tuple[dict, float] | tupl
         sc, co, stt, pk = (z[f"{k}_{i}"] for k in ("scales", "collapse", "status", "peak"))
         if not np.all(np.isin(coarse, sc)):
             return None, None  # another grid: run again
-        cap, n_int = lowest_collapse(sc, co, stt)
-        per_rec[str(nm)] = dict(
-            scales=sc,
-            collapse=co,
-            status=stt,
-            peak=pk,
-            capacity_g=cap,
-            n_intervals=n_int,
-            n_failed=int(np.sum(stt != 0)),
-            at_lowest_scale=bool(cap == coarse[0]),
-        )
+        per_rec[str(nm)] = record_result(sc, co, stt, pk, coarse)
     return per_rec, float(z["seconds"]) if "seconds" in z else math.nan
 
 
