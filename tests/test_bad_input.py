@@ -19,7 +19,6 @@ from collections.abc import Callable
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jaxtyping
 import numpy as np
 import pytest
 import xarray as xr
@@ -35,13 +34,8 @@ SQUAT = dict(b=1.0, h=0.5)  # eta = 63 deg: Housner's e_H = 1 - 1.5 sin^2(eta) =
 NAN, INF = float("nan"), float("inf")
 
 
-@pytest.fixture(autouse=True)
-def user_view():
-    """Run each case as a user would: without the test-only jaxtyping/beartype checks."""
-    before = jaxtyping.config.jaxtyping_disable
-    jaxtyping.config.update("jaxtyping_disable", True)
-    yield
-    jaxtyping.config.update("jaxtyping_disable", before)
+# every case runs as a user calls: without the test-only jaxtyping/beartype checks
+pytestmark = pytest.mark.usefixtures("user_view")
 
 
 @dataclasses.dataclass(frozen=True)

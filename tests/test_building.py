@@ -13,7 +13,6 @@ import math
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jaxtyping
 import numpy as np
 import pytest
 from scipy import integrate, linalg
@@ -388,15 +387,6 @@ def test_wall_top_motion_under_vmap():
 
 
 # ----------------------------------------------------------------------------- bad input
-
-
-@pytest.fixture
-def user_view():
-    """As a user calls: without the test-only jaxtyping/beartype checks (tests/test_bad_input.py)."""
-    before = jaxtyping.config.jaxtyping_disable
-    jaxtyping.config.update("jaxtyping_disable", True)
-    yield
-    jaxtyping.config.update("jaxtyping_disable", before)
 
 
 def test_bad_input(user_view):

@@ -16,7 +16,6 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jaxtyping
 import numpy as np
 import pytest
 from helpers import housner_time_to_impact
@@ -607,16 +606,6 @@ def test_a_traced_zero_width_is_blamed_on_b_not_on_theta0(block):
         jax.block_until_ready(jax.vmap(status)(jnp.array([float(block.b), 0.0])))
     assert "b and h [m] must be positive" in str(info.value)
     assert "theta0 must satisfy" not in str(info.value)
-
-
-@pytest.fixture
-def user_view():
-    """Without the test-only runtime type checks, which would refuse a wrong type before the
-    library's own check can say what to do."""
-    before = jaxtyping.config.jaxtyping_disable
-    jaxtyping.config.update("jaxtyping_disable", True)
-    yield
-    jaxtyping.config.update("jaxtyping_disable", before)
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,6 @@ import math
 
 import jax
 import jax.numpy as jnp
-import jaxtyping
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -188,15 +187,6 @@ def test_jit_vmap_and_grad_over_the_wall_amplitude(block, record):
     g = float(jax.jit(jax.grad(peak))(1.0))
     fd = (float(peak(1.0 + FD_STEP)) - float(peak(1.0 - FD_STEP))) / (2 * FD_STEP)
     assert g == pytest.approx(fd, rel=FD_RTOL)
-
-
-@pytest.fixture
-def user_view():
-    """Without the test-only runtime type checks (the library's own messages are tested)."""
-    before = jaxtyping.config.jaxtyping_disable
-    jaxtyping.config.update("jaxtyping_disable", True)
-    yield
-    jaxtyping.config.update("jaxtyping_disable", before)
 
 
 def test_wall_motion_bad_input_raises(block, record, user_view):

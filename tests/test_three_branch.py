@@ -14,7 +14,6 @@ from types import SimpleNamespace
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jaxtyping
 import numpy as np
 import pytest
 from scipy.integrate import quad, solve_ivp
@@ -112,16 +111,6 @@ def test_rigid_law_is_the_rigid_line(block):
 def test_inconsistent_law_raises(kwargs, match):
     with pytest.raises(ValueError, match=match):
         ThreeBranchLaw(**kwargs)
-
-
-@pytest.fixture
-def user_view():
-    """Without the test-only runtime type checks, which would refuse a wrong type before the
-    library's own check can say what to do."""
-    before = jaxtyping.config.jaxtyping_disable
-    jaxtyping.config.update("jaxtyping_disable", True)
-    yield
-    jaxtyping.config.update("jaxtyping_disable", before)
 
 
 def test_simulate_refuses_a_law_of_the_wrong_type(block, user_view):
