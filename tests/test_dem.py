@@ -686,6 +686,7 @@ def test_face_jit_vmap_and_grad(parapet):
     assert abs(g - fd) < FD_RTOL * abs(fd), (g, fd)
 
 
+@pytest.mark.slow  # ~50-100 s on 2 cores; the clipped dashpot is an option, the default is tested above
 def test_face_clipped_dashpot_matches_many_sub_contacts():
     """Reference: n_sub = 64 sub-contacts with the clipped dashpot (computed here, dt_d / 2),
     0.2 x 1.5 m at 2 beta_DeJong: the face law cuts the face where k (delta + beta delta_dot)
