@@ -291,6 +291,10 @@ class _Record(eqx.Module):
     # rotation theta_w = u_top / h [rad] and rate [rad/s] at the samples, or None.
     wall_theta: Array | None = None
     wall_rate: Array | None = None
+    # With a moving wall: the restoring acceleration A_+ [rad/s^2] of a block resting on it
+    # at each sample (on the interval the sample starts), computed once per run for the rest
+    # rule's look-ahead (``with_wall_restoring``).
+    wall_restoring: Array | None = None
 
     def wall(self, t, t_ref=None):
         """``(theta_w, theta_w', theta_w'')`` at time ``t`` [rad, rad/s, rad/s^2]: the cubic
@@ -316,6 +320,14 @@ class _Record(eqx.Module):
         rate = (6 * r2 - 6 * r) * (p0 - p1) + (3 * r2 - 4 * r + 1) * m0 + (3 * r2 - 2 * r) * m1
         accel = (12 * r - 6) * (p0 - p1) + (6 * r - 4) * m0 + (6 * r - 2) * m1
         return theta, rate / self.dt, accel / (self.dt * self.dt)
+
+    def with_wall_restoring(self, params: _Params) -> _Record:
+        """This record with ``wall_restoring`` filled in (a moving wall only): the rest rule
+        reads it at up to ``REST_HORIZON`` samples after every impact, one gather each instead
+        of the wall's cubic and the forcing at each."""
+        t = jnp.arange(self.wall_theta.shape[0]) * self.dt
+        a = -params.p2_over_g * params.cos_eta * _wall_excess(t, self, params, self)
+        return eqx.tree_at(lambda r: r.wall_restoring, self, a, is_leaf=lambda x: x is None)
 
     def _eval(self, ys, t):
         n = ys.shape[0]
@@ -642,7 +654,8 @@ def _rests(
     def restoring_samples(i):
         if record.wall_theta is None:
             return _restoring(*record.sample(i), params)
-        return restoring_at(i * record.dt)
+        a = record.wall_restoring[_clip(i, 0, record.wall_restoring.shape[0] - 1)]
+        return a, a
 
     stays = fits & keeps(*restoring_at(t_end), jnp.ones_like(fits))
     # the samples inside (t_imp, t_end), all at once (one gather, a small graph)
@@ -1382,6 +1395,7 @@ def _simulate(
         record = _Record(ag=ag, ag_v=ag_v, dt=dt_out)
     else:
         record = _Record(ag=ag, ag_v=ag_v, dt=dt_out, wall_theta=wall[0], wall_rate=wall[1])
+        record = record.with_wall_restoring(params)
     moving = (theta0 != 0) | (theta_dot0 != 0)
     if one_sided:
         s0 = jnp.where(moving, 1.0, 0.0)
