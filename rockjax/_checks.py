@@ -5,6 +5,7 @@ Traced values (inside jit/vmap/grad) cannot be checked here; those are checked i
 """
 
 import math
+from typing import NamedTuple
 
 import jax
 import numpy as np
@@ -143,3 +144,35 @@ def check_above(name: str, value, limit: float, unit: str, hint: str) -> None:
     v = concrete(value)
     if v is not None and np.any(v < limit):
         raise ValueError(f"{name}={value} {unit} is below {limit:g} {unit}. {hint}")
+
+
+class TimeSteps(NamedTuple):
+    """The steps of a time axis, as the readers check it (:func:`time_steps`)."""
+
+    steps: np.ndarray  # t[k + 1] - t[k] [s]
+    first_back: int | None  # the first k with a step <= 0 (times that do not increase)
+    n_back: int  # how many such steps
+    mean: float  # (t[-1] - t[0]) / (n - 1) [s]
+    worst: int  # the k whose step is farthest from the mean
+    off: np.ndarray  # bool per step: farther from the mean than rtol * mean
+
+    @property
+    def uniform(self) -> bool:
+        return self.first_back is None and not self.off.any()
+
+
+def time_steps(t: np.ndarray, rtol: float) -> TimeSteps:
+    """The one home of what a time axis must satisfy: increasing, and uniform to ``rtol`` of its
+    mean step. Each caller words the error for its source (an array, a file's lines)."""
+    steps = np.diff(t)
+    back = np.flatnonzero(steps <= 0)
+    mean = float((t[-1] - t[0]) / (t.size - 1))
+    dev = np.abs(steps - mean)
+    return TimeSteps(
+        steps=steps,
+        first_back=int(back[0]) if back.size else None,
+        n_back=int(back.size),
+        mean=mean,
+        worst=int(np.argmax(dev)),
+        off=dev > rtol * abs(mean),
+    )

