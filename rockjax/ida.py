@@ -3,9 +3,12 @@
 Every (record, scale) pair is one run of :func:`rockjax.simulate_dem` or
 :func:`rockjax.simulate_housner` (``model="three_branch"``: with a three-branch law) with
 ``throw=False``. A facade in a building (``wall_motion=`` a :class:`rockjax.ShearBuilding`)
-has its return walls driven by the building's response to each scaled record. The pairs are flattened and run in
-chunks of ``chunk_size``: one ``jit(vmap(...))`` per chunk from a Python loop, which bounds the
-memory and lets a progress bar advance between chunks. The last chunk is padded (with
+has its return walls driven by the building's response to each scaled record; a wall of
+several blocks in a building (an :class:`rockjax.Assembly` with ``support_motion=`` a building
+and ``storey=``) stands on its floor and is held by the floor above. The building is linear:
+its response is solved once per record and scaled with the record in every run. The pairs are
+flattened and run in chunks of ``chunk_size``: one ``jit(vmap(...))`` per chunk from a Python
+loop, which bounds the memory and lets a progress bar advance between chunks. The last chunk is padded (with
 zero-scale runs of the first record, dropped afterwards) to the same shape, so the batch
 compiles once.
 
@@ -96,6 +99,8 @@ def ida(
     joint: Joint | None = None,
     law: ThreeBranchLaw | ThreeBranchFit | None = None,
     wall_motion: ShearBuilding | None = None,
+    support_motion: ShearBuilding | None = None,
+    storey: int | None = None,
 ) -> xr.Dataset:
     """Incremental dynamic analysis of one block: every record at every scale factor.
 
@@ -144,6 +149,14 @@ def ida(
         wall_motion: One-sided only: a :class:`rockjax.ShearBuilding` whose response to each
             scaled record moves the facade's return walls (``wall_motion=`` of the
             simulators); its periods are in ``attrs["building_periods"]``.
+        support_motion: An :class:`rockjax.Assembly` only: the :class:`rockjax.ShearBuilding`
+            whose storey ``storey`` the wall spans (:func:`rockjax.simulate_assembly`): its
+            base on floor ``storey - 1`` (0 the ground), its top restraint held by floor
+            ``storey``. The scales, ``pga`` and ``im`` stay those of the ground record. Its
+            periods are in ``attrs["building_periods"]``, the storey in ``attrs["storey"]``.
+        storey: With ``support_motion``: the storey (1-based) the wall stands in, 1 to
+            ``n_storeys`` for a restrained top, up to ``n_storeys + 1`` (the roof) for a free
+            one; default 1.
 
     Returns:
         An ``xarray.Dataset`` with dims ``("record", "scale")`` and variables
@@ -181,6 +194,8 @@ def ida(
         joint=joint,
         law=law,
         wall_motion=wall_motion,
+        support_motion=support_motion,
+        storey=storey,
     )
     grids = _run(plan, _placement(devices), progress)
     return _assemble(plan, grids)
@@ -197,12 +212,15 @@ def run_config(
     joint=None,
     law=None,
     wall_motion=None,
+    support_motion=None,
+    storey=None,
 ):
     """Checked run parameters of :func:`ida`: ``(block, config, e_used)``.
 
     ``block`` has Python-float fields; ``config`` holds ``model``, ``mode``, ``beta``, ``e``,
     ``gap`` (Python floats or None), ``joint`` (the DEM's :class:`rockjax.Joint`, None for
-    Housner), ``law``, ``wall_motion`` and ``dt_bound``, the solver step bound [s]; ``e_used``
+    Housner), ``law``, ``wall_motion``, ``support_motion``, ``storey`` (an int, 1 without a
+    building) and ``dt_bound``, the solver step bound [s]; ``e_used``
     is the Housner restitution the runs use (None for the DEM). Raises ValueError as
     :func:`ida`.
     """
@@ -217,6 +235,7 @@ def run_config(
             )
     else:
         block = _scalar_block(block)
+    storey = _check_support(block, support_motion, storey)
     if isinstance(law, ThreeBranchFit):  # rj.fit_three_branch(...) passed as it is
         law = law.law
     if model == "three_branch":
@@ -302,9 +321,45 @@ def run_config(
         joint=joint,
         law=law,
         wall_motion=wall_motion,
+        support_motion=support_motion,
+        storey=storey,
         dt_bound=dt_bound,
     )
     return block, config, e_used
+
+
+def _check_support(block, support_motion, storey) -> int:
+    """The storey of a wall of several blocks in a building (1 without one), checked."""
+    if support_motion is None:
+        if storey is not None:
+            raise ValueError(
+                f"storey={storey!r} needs support_motion=<rockjax.ShearBuilding> (the building "
+                "whose storey the wall spans); drop storey for a wall on the ground."
+            )
+        return 1
+    if not isinstance(block, Assembly):
+        raise ValueError(
+            "support_motion (the building carrying a wall of several blocks) needs an "
+            "rj.Assembly, e.g. rj.Assembly.stack([block], top='restrained'); got a "
+            f"{type(block).__name__}. For a facade's return walls use wall_motion=bldg with "
+            "mode='one_sided'; for a parapet on a roof, run the IDA on the roof's motions."
+        )
+    if not isinstance(support_motion, ShearBuilding):
+        raise ValueError(
+            "ida's support_motion must be a rockjax.ShearBuilding (its response to each scaled "
+            f"record moves the wall's supports); got {type(support_motion).__name__}. Build one "
+            "with rj.ShearBuilding.uniform(n_storeys, storey_height, period)."
+        )
+    storey = 1 if storey is None else storey
+    n = support_motion.n_storeys
+    top_max = n if block.top == "restrained" else n + 1
+    if not (isinstance(storey, int) and not isinstance(storey, bool) and 1 <= storey <= top_max):
+        raise ValueError(
+            f"storey (1-based storey the wall stands in) must be an integer in 1..{top_max} "
+            f"for this {n}-storey building and a {block.top} top; got storey={storey!r}. "
+            "Storey i stands on floor i - 1 (0 the ground); a restrained top needs floor i."
+        )
+    return storey
 
 
 class CollapseIntervals(NamedTuple):
@@ -418,6 +473,8 @@ def _plan(
     joint=None,
     law=None,
     wall_motion=None,
+    support_motion=None,
+    storey=None,
 ) -> _Plan:
     """Check the inputs of :func:`ida` and cut its runs into chunks (no run yet)."""
     block, config, e_used = run_config(
@@ -430,6 +487,8 @@ def _plan(
         joint=joint,
         law=law,
         wall_motion=wall_motion,
+        support_motion=support_motion,
+        storey=storey,
     )
     im_spec = parse_im(im)
     scales = check_scales(scales)
@@ -479,8 +538,10 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
     }
     bar = _progress.bar(progress, total=n_rec * n_scale, desc="rockjax.ida", unit="run")
     seen: set[float] = set()
-    config = {k: v for k, v in plan.config.items() if k != "wall_motion"}
+    building = {"wall_motion", "support_motion", "storey"}
+    config = {k: v for k, v in plan.config.items() if k not in building}
     walls: dict[float, tuple] = {}
+    supports: dict[float, tuple] = {}
     for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
         # the first chunk of a dt group compiles: say so while it runs
         first = g.dt not in seen
@@ -501,7 +562,20 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
             if g.dt not in walls:
                 walls[g.dt] = _wall_histories(plan.config["wall_motion"], g.ag, g.dt, plan.block.h)
             wall = tuple(place.replicated(w) for w in walls[g.dt])
-        out = _run_chunk(plan.block, ag, ag_v, rec_k, scale_k, wall, dt_rec=g.dt, **config)
+        support = None
+        if plan.config["support_motion"] is not None:
+            # the same for a wall of several blocks: its base floor's acceleration and the
+            # storey's drift at scale 1, once per record
+            if g.dt not in supports:
+                supports[g.dt] = _support_histories(
+                    plan.config["support_motion"],
+                    g.ag,
+                    g.dt,
+                    plan.config["storey"],
+                    plan.block.top == "restrained",
+                )
+            support = tuple(place.replicated(a) for a in supports[g.dt])
+        out = _run_chunk(plan.block, ag, ag_v, rec_k, scale_k, wall, support, dt_rec=g.dt, **config)
         out = jax.device_get(out)
         for key in grids:
             grids[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
@@ -582,6 +656,9 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
                 attrs[f"law_{field}"] = float(getattr(law, field))
     if config["wall_motion"] is not None:
         attrs["building_periods"] = np.asarray(config["wall_motion"].periods, float)
+    if config["support_motion"] is not None:
+        attrs["building_periods"] = np.asarray(config["support_motion"].periods, float)
+        attrs["storey"] = config["storey"]
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
 
 
@@ -721,6 +798,27 @@ def _wall_histories(building, ag, dt: float, height):
 
 
 @eqx.filter_jit
+def _support_histories(building, ag, dt: float, storey: int, restrained: bool):
+    """The supports of a wall in storey ``storey`` for every record of a group at scale 1,
+    each (record, time): the base floor's absolute acceleration [m/s^2] and, for a restrained
+    top, the storey's drift [m] and its rate [m/s] (floor ``storey`` less floor ``storey - 1``,
+    :meth:`rockjax.ShearBuilding.response`), as :func:`rockjax.simulate_assembly` computes them
+    in a single run."""
+
+    def one(a):
+        resp = building.response(GroundMotion(ag=a, dt=dt))
+        base = a if storey == 1 else resp.acceleration[storey - 2]
+        if not restrained:
+            return (base,)
+        u, v = resp.displacement[storey - 1], resp.velocity[storey - 1]
+        if storey > 1:
+            u, v = u - resp.displacement[storey - 2], v - resp.velocity[storey - 2]
+        return base, u, v
+
+    return jax.vmap(one)(ag)
+
+
+@eqx.filter_jit
 def _run_chunk(
     block,
     ag,
@@ -728,6 +826,7 @@ def _run_chunk(
     rec_idx,
     scale,
     wall,
+    support,
     *,
     model,
     mode,
@@ -740,13 +839,22 @@ def _run_chunk(
     dt_bound,
 ):
     """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (vmapped); ``wall``:
-    None, or the return wall's ``(u_top, v_top)`` per record at scale 1, scaled likewise."""
+    None, or the return wall's ``(u_top, v_top)`` per record at scale 1, scaled likewise;
+    ``support``: None, or an assembly's base acceleration (and top restraint's ``(u, v)``) per
+    record at scale 1 (:func:`_support_histories`), scaled likewise."""
 
     def one(i, s):
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
         wall_motion = None if wall is None else (s * wall[0][i], s * wall[1][i])
         if isinstance(block, Assembly):
-            r = simulate_assembly(block, motion, beta=beta, dt=dt_bound, joint=joint, throw=False)
+            kw = {}
+            if support is not None:
+                motion = GroundMotion(ag=s * support[0][i], dt=dt_rec, ag_v=motion.ag_v)
+                if len(support) == 3:
+                    kw["support_motion"] = (s * support[1][i], s * support[2][i])
+            r = simulate_assembly(
+                block, motion, beta=beta, dt=dt_bound, joint=joint, throw=False, **kw
+            )
             top = block.blocks[-1]
             d = r.x[:, -1] - block.x_offset[-1] + 0.5 * top.h * jnp.sin(r.theta[:, -1])
             ok = r.status == STATUS_OK

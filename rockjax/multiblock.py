@@ -789,7 +789,8 @@ def _collapsed(p: AssemblyParams, st: AssemblyState):
     """The collapse rule (docs/assemblies.md, "Collapse"): a block past ``|theta| > eta``
     rotating outward (the one-block rule of :func:`rockjax.simulate_dem`); with a free top, a
     sub-stack whose centre of gravity (overburden included) has passed the edge of its
-    support and moves outward; a block whose centroid has slid off the block below."""
+    support and moves outward; a block whose bottom face's centre has slid off the block
+    below."""
     over = jnp.zeros((), bool)
     for k in range(p.n):
         th, w = st.theta[k], st.w[k]
@@ -811,8 +812,15 @@ def _collapsed(p: AssemblyParams, st: AssemblyState):
             edge_hi = st.x[k] + p.hi[k] * c - hh * s
             over = over | ((gx > edge_hi) & (gv > 0)) | ((gx < edge_lo) & (gv < 0))
     for k in range(1, p.n):
+        # slid off: the centre of block k's bottom face (body point (0, -h_k/2)), in the frame
+        # of block k - 1, beyond that block's half-width; measured at the face, not the
+        # centroid, because a block hinging on the edge below turns its centroid past the
+        # edge without leaving its support
         cl, sl = st.c[k - 1], st.s[k - 1]
-        u = cl * (st.x[k] - st.x[k - 1]) - sl * (st.y[k] - st.y[k - 1])
+        hh = 0.5 * p.h[k]
+        fx = st.x[k] - hh * st.s[k] - st.x[k - 1]
+        fy = st.y[k] - hh * st.c[k] - st.y[k - 1]
+        u = cl * fx - sl * fy
         over = over | (jnp.abs(u) > 0.5 * p.b[k - 1])
     return over
 
@@ -992,7 +1000,7 @@ def simulate_assembly(
     save: tuple[str, ...] = (),
     beta_max=None,
     throw: bool = True,
-    support_motion: ShearBuilding | None = None,
+    support_motion: ShearBuilding | tuple | None = None,
     storey: int = 1,
 ) -> AssemblyResponse:
     """Simulate an assembly of rigid blocks on penalty joints under a ground motion and/or a
@@ -1025,7 +1033,12 @@ def simulate_assembly(
         beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
         throw: Raise (also inside ``jit``) if the run fails; if False, report ``status``.
         support_motion: A :class:`rockjax.ShearBuilding` whose floors carry the wall (needs
-            ``motion``, the ground motion under the building); ``None``: the ground.
+            ``motion``, the ground motion under the building); or a pair ``(u, v)`` of arrays,
+            shape ``(time,)`` at the run's samples: the top restraint's displacement [m] and
+            velocity [m/s] relative to the base, linear between samples (``top="restrained"``;
+            ``motion`` is then the base's absolute acceleration, e.g. a floor's, and
+            ``storey`` stays 1): a building's response computed once and reused, e.g. scaled
+            with the record in an IDA; ``None``: the ground.
         storey: The storey the wall stands in (1-based, with ``support_motion``): base on
             floor ``storey - 1``, top restraint at floor ``storey``; ``n_storeys + 1`` for a
             wall on the roof (free top only).
@@ -1080,10 +1093,13 @@ def _in_building(building, storey, assembly: Assembly, motion, ag, dt_out):
                 "that carry the wall); leave storey=1 for a wall on the ground."
             )
         return ag, None
+    if _is_array_pair(building):
+        return ag, _restraint_arrays(building, storey, assembly, ag)
     if not isinstance(building, ShearBuilding):
         raise ValueError(
-            f"support_motion must be a rockjax.ShearBuilding (the floors carrying the wall); "
-            f"got {type(building).__name__}. Build one with rj.ShearBuilding.uniform(...)."
+            f"support_motion must be a rockjax.ShearBuilding (the floors carrying the wall) or "
+            f"a pair (u, v) of arrays, the top restraint's motion relative to the base [m, "
+            f"m/s]; got {type(building).__name__}. Build one with rj.ShearBuilding.uniform(...)."
         )
     if motion is None:
         raise ValueError(
@@ -1109,6 +1125,45 @@ def _in_building(building, storey, assembly: Assembly, motion, ag, dt_out):
     if base > 0:
         u, v = u - resp.displacement[base - 1], v - resp.velocity[base - 1]
     return ag, (u, v)
+
+
+def _is_array_pair(x) -> bool:
+    return (
+        isinstance(x, tuple)
+        and len(x) == 2
+        and all(isinstance(a, (np.ndarray, jax.Array)) for a in x)
+    )
+
+
+def _restraint_arrays(pair, storey, assembly: Assembly, ag):
+    """The top restraint's ``(u [m], v [m/s])`` relative to the base, given as arrays at the
+    run's samples (``support_motion=(u, v)``), checked."""
+    if storey not in (1, None):  # None: rj.simulate_dem's default
+        raise ValueError(
+            f"storey={storey!r} applies to support_motion=<rockjax.ShearBuilding>; with "
+            "support_motion=(u, v) (the restraint's motion relative to the base) the base is "
+            "motion itself: leave storey=1."
+        )
+    if assembly.top != "restrained":
+        raise ValueError(
+            "support_motion=(u, v) moves the top restraint and needs an Assembly with "
+            "top='restrained'; got top='free'. Drop support_motion for a free top (the base "
+            "is motion)."
+        )
+    n = ag.shape[0]
+    out = []
+    for name, a in zip(("u", "v"), pair):
+        if np.shape(a) != (n,):
+            raise ValueError(
+                f"support_motion: {name} [m or m/s] must have one value per sample of the run, "
+                f"shape ({n},); got shape {np.shape(a)}. Sample it at motion's dt over the "
+                "run's duration (pad the record first)."
+            )
+        a_c = concrete(a)
+        if a_c is not None and not np.all(np.isfinite(a_c)):
+            raise ValueError(f"support_motion: {name} [m or m/s] contains non-finite values.")
+        out.append(jnp.asarray(a, float))
+    return tuple(out)
 
 
 def _check_theta0(theta0, assembly: Assembly):

@@ -443,3 +443,109 @@ def test_assembly_ida_equals_single_runs():
         assert bool(ds.collapse[0, j]) == bool(r.overturned)
     with pytest.raises(ValueError, match="Assembly runs with model='dem'"):
         rj.ida(wall, [rec], [1.0], model="housner", progress=False)
+
+
+def _strip():
+    """The wall of a storey: two 0.23 x 1.5 m blocks, top held by the floor above."""
+    blk = rj.Block(b=0.23, h=1.5)
+    return rj.Assembly.stack([blk, blk], top="restrained", overburden=5e3)
+
+
+STRIP_BETA = 6e-3  # [s], about rj.beta_dejong of the 0.23 x 1.5 m block
+STRIP_SCALES = [0.5, 3.0]
+
+
+def _strip_records():
+    """Two short pulses of one step (one compiled batch, shared by the tests below)."""
+    return [
+        rj.GroundMotion.ricker(pga=3.0, period=0.5, dt=0.01, duration=1.5, name="r05"),
+        rj.GroundMotion.sine_cycle(pga=2.0, period=0.8, dt=0.01, duration=1.5, name="s08"),
+    ]
+
+
+def _strip_ida(building=None, storey=None):
+    kw = {} if building is None else dict(support_motion=building, storey=storey)
+    return rj.ida(
+        _strip(), _strip_records(), STRIP_SCALES, beta=STRIP_BETA, tail=0.5, progress=False, **kw
+    )
+
+
+def test_assembly_in_a_building_equals_single_runs():
+    # Reference: a loop of rj.simulate_dem(wall, record, support_motion=bldg, storey=2), each
+    # solving the building for its own scaled record; the IDA solves it once per record and
+    # scales it (the building is linear), so the runs differ by round-off only.
+    wall = _strip()
+    bldg = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.3, damping=0.05)
+    ds = _strip_ida(bldg, 2)
+    np.testing.assert_allclose(ds.attrs["building_periods"], np.asarray(bldg.periods))
+    assert ds.attrs["storey"] == 2
+    t_end = float(ds.attrs["t_end"])
+    dt = rj.stable_dt_assembly(wall, STRIP_BETA)
+    rec = _strip_records()[0]
+    for j, s in enumerate(STRIP_SCALES):
+        r = rj.simulate_dem(
+            wall,
+            rec.scaled(s),
+            beta=STRIP_BETA,
+            dt=dt,
+            duration=t_end,
+            support_motion=bldg,
+            storey=2,
+        )
+        theta = float(np.max(np.asarray(r.theta_max) / np.asarray(r.eta)))
+        assert float(ds.max_theta_over_eta[0, j]) == pytest.approx(theta, rel=1e-9)
+        assert bool(ds.collapse[0, j]) == bool(r.overturned)
+        d = np.asarray(r.x[:, -1]) + 0.75 * np.sin(np.asarray(r.theta[:, -1]))
+        assert float(ds.max_d_over_b[0, j]) == pytest.approx(np.max(np.abs(d)) / 0.23, rel=1e-9)
+
+
+RIGID_RTOL = 1e-3
+"""A 0.005 s building under 0.5-0.8 s pulses: floor motions differ from the ground's by about
+(0.005 / 0.5)^2 = 1e-4 (docs/assemblies.md measured 6e-5 of the peak rotation)."""
+
+
+def test_assembly_in_a_rigid_building_is_the_ground_ida():
+    rigid = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.005, damping=0.05)
+    ds = _strip_ida(rigid, 2)
+    ground = _strip_ida()
+    np.testing.assert_allclose(
+        ds.max_theta_over_eta, ground.max_theta_over_eta, rtol=RIGID_RTOL, atol=1e-6
+    )
+    assert (ds.collapse.values == ground.collapse.values).all()
+
+
+@pytest.mark.parametrize(
+    "block, kwargs, match",
+    [
+        (rj.Block(b=0.23, h=1.5), dict(support_motion="bldg"), "needs an rj.Assembly"),
+        ("strip", dict(storey=2), "needs support_motion"),
+        ("strip", dict(support_motion="bldg", storey=3), r"integer in 1\.\.2"),
+        ("strip", dict(support_motion="bldg", storey=0), r"integer in 1\.\.2"),
+        ("strip", dict(support_motion="floors"), "must be a rockjax.ShearBuilding"),
+    ],
+)
+def test_support_motion_errors(block, kwargs, match, user_view):
+    bldg = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.3)
+    block = _strip() if block == "strip" else block
+    if kwargs.get("support_motion") == "bldg":
+        kwargs = {**kwargs, "support_motion": bldg}
+    elif kwargs.get("support_motion") == "floors":
+        kwargs = {**kwargs, "support_motion": bldg.floor_motions(_pulses()[0])}
+    with pytest.raises(ValueError, match=match):
+        rj.ida(block, _pulses(), [1.0], beta=1e-3, progress=False, **kwargs)
+
+
+def test_precomputed_supports_are_checked(user_view):
+    # The pair form of support_motion that the IDA passes to rj.simulate_assembly.
+    wall, gm = _strip(), _strip_records()[0]
+    zeros = np.zeros(gm.n)
+    for kwargs, match in [
+        (dict(support_motion=(zeros[:-1], zeros)), r"shape \(151,\)"),
+        (dict(support_motion=(zeros, zeros), storey=2), "leave storey=1"),
+        (dict(support_motion=(zeros + np.nan, zeros)), "non-finite"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            rj.simulate_assembly(wall, gm, beta=STRIP_BETA, **kwargs)
+    free = rj.Assembly.stack(list(wall.blocks))
+    with pytest.raises(ValueError, match="top='restrained'"):
+        rj.simulate_assembly(free, gm, beta=STRIP_BETA, support_motion=(zeros, zeros))
