@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -378,6 +379,30 @@ def _tr(a):
     return [[a[j][i] for j in range(3)] for i in range(3)]
 
 
+def _one_computation(f, *args):
+    """``f(*args)`` kept as one XLA computation (a ``cond`` on a predicate XLA cannot fold:
+    true unless the first array input is NaN, where the other branch gives NaN as well).
+
+    Why: the step is unrolled scalar arithmetic, and XLA's CPU fusion copies a producer into
+    every consumer it feeds; inlined, the block elimination was recomputed inside each of the
+    3 n velocity updates that read its result, and a two-block step compiled to three times
+    the operations of its source (5.9x the one-block assembly's; ``python
+    benchmarks/bench_assembly.py``, docs/assemblies.md "Speed"). Python numbers in ``args``
+    (the folded zeros and ones of ``_plus``/``_mul``) stay Python numbers inside.
+    """
+    dynamic, static = eqx.partition(args, eqx.is_array)
+    first = jax.tree.leaves(dynamic)[0]
+    ok = eqxi.unvmap_any(first == first)
+
+    def run(d):
+        return f(*eqx.combine(d, static))
+
+    def nan(d):
+        return jax.tree.map(lambda a: jnp.full(a.shape, jnp.nan, a.dtype), jax.eval_shape(run, d))
+
+    return jax.lax.cond(ok, run, nan, dynamic)
+
+
 def _solve_tridiagonal(diag, lower, rhs):
     """Solve the symmetric block-tridiagonal system with diagonal blocks ``diag[k]``,
     ``A[k, k-1] = lower[k]`` (``lower[0]`` unused) and right-hand sides ``rhs[k]`` by block
@@ -719,7 +744,7 @@ def step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load=None, top_m
         )
         lower.append(None if clow[k] is None else _scale(h, clow[k]))
         rhs.append([force[k][0] - mk * ag, force[k][1] - mk * (G + ag_v), _plus(force[k][2])])
-    acc = _solve_tridiagonal(diag, lower, rhs)
+    acc = _one_computation(_solve_tridiagonal, diag, lower, rhs)
     new = {f: [] for f in ("x", "y", "c", "s", "vx", "vy", "w", "theta", "theta_max")}
     for k in range(n):
         ax, ay, aw = acc[k]
