@@ -40,13 +40,15 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
-import xarray as xr
 
 from . import jsonio
 from ._checks import check_nonnegative, check_scales
+from ._lazy import lazy_module
 from .block import Block
 from .ida import DEFAULT_SCALES, MODELS, ida, run_config
 from .motion import GroundMotion
+
+xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
 
 MANIFEST = "campaign.json"
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")

@@ -45,13 +45,15 @@ import dataclasses
 import math
 
 import numpy as np
-import xarray as xr
 from jaxtyping import ArrayLike, Float
 
 from ._checks import check_scalar
+from ._lazy import lazy_module
 from .constants import G
 from .response import STATUS_OK
 from .spectra import is_im_name, parse_im
+
+xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
 
 _erfc = np.frompyfunc(math.erfc, 1, 1)
 _SQRT2 = math.sqrt(2.0)

@@ -53,11 +53,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import xarray as xr
 from jaxtyping import ArrayLike, Float
 
 from . import _progress
 from ._checks import check_choice, check_nonnegative, check_positive, check_scalar, check_scales
+from ._lazy import lazy_module
 from ._types import ScalarLike
 from .assembly import Assembly
 from .block import Block
@@ -72,6 +72,8 @@ from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
 from .three_branch import ThreeBranchFit, ThreeBranchLaw
+
+xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
 
 MODELS = ("dem", "housner", "three_branch")
 MODES = ("two_sided", "one_sided")
