@@ -12,7 +12,10 @@ under ``grad``). rockjax avoids this in three ways:
   ``~/.cache/rockjax/jax`` (or ``$ROCKJAX_CACHE_DIR``), so a new process loads what an earlier
   one compiled instead of compiling it again. The command line enables it at startup; in a
   notebook or script call ``rj.enable_compilation_cache()`` once. ``ROCKJAX_CACHE_DIR=off``
-  disables it.
+  disables it. JAX does not cache a program that calls back into Python, as ``eqx.error_if``
+  does, so the eager calls of ``simulate_housner`` and ``simulate_dem`` compile their runs
+  without it and check the returned status in Python afterwards (the same errors); under a
+  caller's ``jit`` with ``throw=True`` the check stays in the program, which is then not cached.
 * **Notices.** The first call that compiles a solver says so in one line ("compiling the Housner
   solver for records of <= 32768 samples (once per session)..."), through the ``rockjax``
   logger when logging is configured, else on stderr. Silence them with

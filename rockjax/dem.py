@@ -11,8 +11,11 @@ unit area, Mohr-Coulomb with zero tension and cohesion, stiffness-proportional R
 damping ``beta`` as a dashpot ``c = beta k`` on the closed joint (see :mod:`rockjax.contact`
 for the two damping conventions). A facade (``mode="one_sided"``) also has a rigid return
 wall at its -x face, a distance ``gap`` behind it, meeting the block's back face through the
-same joint; the wall may move relative to the base (``simulate_dem(..., wall_motion=...)``: a
-straight contact line turning about the base, docs/pushover.md "Moving return walls"). A few
+same joint; the wall may move relative to the base (``simulate_dem(..., wall_motion=...)``: the
+block's own back face rocked rigidly to ``theta_w = u_top / h``, about its toe for
+``theta_w > 0``, its heel otherwise, so the contact line is
+``x = -b/2 - gap - d (1 / cos(theta_w) - 1) + y tan(theta_w)``, ``d = b`` or 0, and the face
+rises with that rotation; docs/pushover.md "Moving return walls"). A few
 sub-contacts differ from the converged joint by 1e-2 in the restitution of a parapet and by a
 factor of two in a facade's rebound (docs/verification.md).
 
@@ -412,17 +415,18 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
     for j in range(len(state.fs_wall)):
         u, v = params.u_wall[j], params.v_wall[j]
         rx, ry, x_pt, y_pt, xd_pt, yd_pt = _point_kinematics(state, u, v, c, s)
-        delta, delta_dot, slope, wall_v = _wall_line(params, wall, x_pt, y_pt, xd_pt, yd_pt)
+        delta, delta_dot, slope, wall_v, rise = _wall_line(params, wall, x_pt, y_pt, xd_pt, yd_pt)
         fn, fn_el, frac = normal_force(
             delta, delta_dot, params.kn_wall[j], params.beta, params.dashpot, dt_onset
         )
+        slip = yd_pt if wall is None else yd_pt - rise
         ft, fs = shear_force(
-            state.fs_wall[j], yd_pt, dt, params.ks_wall[j], fn_el, params.tan_phi, params.beta, frac
+            state.fs_wall[j], slip, dt, params.ks_wall[j], fn_el, params.tan_phi, params.beta, frac
         )
         fx, fy, mom = fx + fn, fy + ft, mom + (ry * fn - rx * ft)
         if wall is not None:  # the inclined wall's normal (1, -slope): a vertical component
             fy, mom = fy - slope * fn, mom + rx * slope * fn
-            power = power + fn * wall_v
+            power = power + fn * wall_v + ft * rise
         fs_wall.append(fs)
         c_n = frac * params.beta * params.kn_wall[j]
         if clipped:
@@ -434,23 +438,69 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
     return fx, fy, mom, tuple(fn_base), tuple(fs_base), tuple(fs_wall), damping, power
 
 
-def _wall_line(params: DemParams, wall, x_pt, y_pt, xd_pt, yd_pt):
-    """Penetration [m] and its rate [m/s] of the back-face point ``(x_pt, y_pt)`` into the
-    return wall, the wall's slope ``u_top / h`` [-] and its velocity at the point [m/s].
+def _wall_geometry(params: DemParams, wall):
+    """The return wall's contact line ``x = x0 + slope y`` and the rates ``(x0', slope')``
+    [m, -, m/s, 1/s] (``wall = (u_top, v_top)``, or None: fixed, ``x0 = -b/2 - gap``).
 
-    The wall's contact line is ``x = -b/2 - gap + u_top y / h`` (``y`` above the base), moving
-    with ``v_top y / h`` (docs/pushover.md, "Moving return walls"; ``wall = None``: fixed).
-    The penetration is linear along a straight back face, so the face law stays exact; its rate
-    is the exact time derivative, i.e. the normal velocity of the block point relative to the
-    wall (normal ``(1, -u_top / h)`` to first order in the wall's rotation).
-    """
+    The line is the back face of the block rocked rigidly to ``theta_w = u_top / h``, moved
+    back by ``gap``: turned about its toe ``(b/2, 0)`` for ``theta_w > 0`` (the heel goes to
+    ``(b/2 - b cos theta_w, b sin theta_w)``), about its heel for ``theta_w < 0``:
+    ``x = -b/2 - gap - d (1 / cos(theta_w) - 1) + y tan(theta_w)``, ``d = b`` or 0
+    (``-b/2 - gap + theta_w y - b theta_w^2 / 2`` to second order for ``theta_w > 0``). A
+    block riding on the wall with ``theta = theta_w`` touches it along its whole back face, as
+    in the analytical model, whose gap is ``theta - theta_w`` (docs/pushover.md, "Moving
+    return walls")."""
     wall_x = -0.5 * params.b - params.gap
     if wall is None:
-        return wall_x - x_pt, -xd_pt, 0.0, 0.0
+        return wall_x, 0.0, 0.0, 0.0
     u_top, v_top = wall
-    slope, rate = u_top / params.h, v_top / params.h
-    delta = wall_x + slope * y_pt - x_pt
-    return delta, -xd_pt + rate * y_pt + slope * yd_pt, slope, rate * y_pt
+    theta_w, rate = u_top / params.h, v_top / params.h
+    # tan and 1/cos - 1 by their Taylor series, and their exact derivatives (so the rates are
+    # the derivatives of the line used: the energy balance closes), as step() turns theta: no
+    # transcendental function in the loop. Truncation below 1e-7 of either for
+    # |theta_w| <= 0.3 rad; exactly 0 at theta_w = 0.
+    s2 = theta_w * theta_w
+    slope = theta_w * (1.0 + s2 * (1 / 3 + s2 * (2 / 15 + s2 * (17 / 315 + s2 * 62 / 2835))))
+    slope_d = 1.0 + s2 * (1.0 + s2 * (2 / 3 + s2 * (17 / 45 + s2 * 62 / 315)))
+    sec_m1 = s2 * (1 / 2 + s2 * (5 / 24 + s2 * (61 / 720 + s2 * 277 / 8064)))
+    sec_m1_d = theta_w * (1.0 + s2 * (5 / 6 + s2 * (61 / 120 + s2 * 277 / 1008)))
+    d = jnp.where(theta_w > 0.0, params.b, 0.0)  # the pivot's distance from the face
+    return wall_x - d * sec_m1, slope, -d * sec_m1_d * rate, slope_d * rate
+
+
+def _wall_rise(params: DemParams, wall, x_pt):
+    """Vertical velocity [m/s] of the wall's material at ``x = x_pt``: the wall turns rigidly
+    at ``theta_w' = v_top / h`` about the (gap-shifted) toe ``(b/2 - gap, 0)`` for
+    ``theta_w > 0``, about the heel ``(-b/2 - gap, 0)`` otherwise (:func:`_wall_geometry`), so
+    its face rises at ``theta_w' (x_pivot - x)`` (0 for a fixed wall). A facade riding on it
+    turns about the same corner at the same rate: no slip along the wall."""
+    if wall is None:
+        return 0.0
+    theta_w = wall[0] / params.h
+    x_pivot = jnp.where(theta_w > 0.0, 0.5 * params.b, -0.5 * params.b) - params.gap
+    return wall[1] / params.h * (x_pivot - x_pt)
+
+
+def _wall_line(params: DemParams, wall, x_pt, y_pt, xd_pt, yd_pt):
+    """Penetration [m] and its rate [m/s] of the back-face point ``(x_pt, y_pt)`` into the
+    return wall, the wall's slope [-], the line's horizontal velocity at the point's height
+    and the wall's vertical velocity there [m/s].
+
+    The wall's contact line ``x = x0(t) + slope(t) y`` is the back face of the block rocked to
+    ``theta_w = u_top / h`` (:func:`_wall_geometry`; ``wall = None``: fixed).
+    The penetration ``x0 + slope y_pt - x_pt`` is linear along a straight back face, so the
+    face law stays exact; its rate is the exact time derivative, i.e. the normal velocity of
+    the block point relative to the line (normal ``(1, -slope)``, not normalised). The slip
+    along the wall is the point's vertical velocity less the wall's (:func:`_wall_rise`).
+    """
+    if wall is None:
+        wall_x = -0.5 * params.b - params.gap
+        return wall_x - x_pt, -xd_pt, 0.0, 0.0, 0.0
+    x0, slope, x0_dot, slope_dot = _wall_geometry(params, wall)
+    delta = x0 + slope * y_pt - x_pt
+    wall_v = x0_dot + slope_dot * y_pt
+    rise = _wall_rise(params, wall, x_pt)
+    return delta, -xd_pt + wall_v + slope * yd_pt, slope, wall_v, rise
 
 
 # ----------------------------------------------------------------------------- face law
@@ -496,8 +546,8 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
     (docs/theory.md, "Integrated face contact").
 
     A moving wall (``motion = (u_top, v_top)``, see :func:`_wall_line`) keeps the penetration
-    linear along the back face; its normal ``(1, -u_top / h)`` adds the vertical component
-    ``-fn u_top / h``.
+    linear along the back face; its normal ``(1, -slope)`` adds the vertical component
+    ``-fn slope``.
 
     Returns ``(Fx, Fy, moment, fn, hist_new, (cxx, cyy, cxt, cyt, ctt), wall_power)``.
     """
@@ -507,8 +557,8 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
 
         def kin(t):
             rx, ry, x_pt, y_pt, xd, yd = _point_kinematics(state, -half_b, t, c, s)
-            delta, delta_dot, _, _ = _wall_line(params, motion, x_pt, y_pt, xd, yd)
-            return rx, ry, delta, delta_dot, yd
+            delta, delta_dot, _, _, rise = _wall_line(params, motion, x_pt, y_pt, xd, yd)
+            return rx, ry, delta, delta_dot, yd if motion is None else yd - rise
     else:
         lo, hi = -half_b, half_b
 
@@ -594,11 +644,15 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
         fx, fy = fn, ft
         (cxx, cxt, ctt_x), (cyy, cyt, ctt_y) = n, t_
         if motion is not None:
-            # the wall's normal (1, -slope); its velocity rate * y_pt, y_pt = y + ry, and
-            # mom_n is the integral of f ry here
-            slope, rate = motion[0] / params.h, motion[1] / params.h
+            # the wall's normal (1, -slope); the line's velocity x0' + slope' y_pt,
+            # y_pt = y + ry, and mom_n is the integral of f ry here
+            _, slope, x0_dot, slope_dot = _wall_geometry(params, motion)
             fy, mom = fy - slope * fn, mom + slope * f_rx
-            power = rate * (state.y * fn + mom_n)
+            power = x0_dot * fn + slope_dot * (state.y * fn + mom_n)
+            # the shear on the rising wall: its vertical velocity rate (x_pivot - x - rx),
+            # and the shear traction's moment is the integral of f_t (-rx) here
+            mom_s = f_s * arm_bar - beta * ks * v1
+            power = power + _wall_rise(params, motion, state.x) * ft + motion[1] / params.h * mom_s
     else:
         fx, fy = ft, fn
         (cxx, cxt, ctt_x), (cyy, cyt, ctt_y) = t_, n
@@ -692,36 +746,34 @@ def step(params: DemParams, state: DemState, ag, ag_v, dt, *, wall=None, load=No
     return new, (ax, ay, aw, fn, d, power)
 
 
-def _energy(params: DemParams, state: DemState, vx, vy, w, c, s, u_top=None):
-    """Kinetic + gravitational (from y = h/2) + contact spring energy [J] (``u_top`` [m]: the
-    moving wall's displacement, or None)."""
+def _energy(params: DemParams, state: DemState, vx, vy, w, c, s, wall=None):
+    """Kinetic + gravitational (from y = h/2) + contact spring energy [J] (``wall``: the
+    moving wall's ``(u_top, v_top)`` [m, m/s], or None)."""
     e = 0.5 * params.m * (vx**2 + vy**2) + 0.5 * params.I_c * w**2
     e = e + params.m * G * (state.y - 0.5 * params.h)
     if params.face:
-        return e + _face_energy(params, state, c, s, u_top)
+        return e + _face_energy(params, state, c, s, wall)
     for i in range(len(state.fs_base)):
         _, _, _, y_pt, _, _ = _point_kinematics(state, params.u_base[i], params.v_base[i], c, s)
         delta = jnp.maximum(-y_pt, 0.0)
         e = e + 0.5 * params.kn_base[i] * delta**2 + 0.5 * state.fs_base[i] ** 2 / params.ks_base[i]
-    wall_x = -0.5 * params.b - params.gap
+    wall_x, slope, _, _ = _wall_geometry(params, wall)
     for j in range(len(state.fs_wall)):
         _, _, x_pt, y_pt, _, _ = _point_kinematics(state, params.u_wall[j], params.v_wall[j], c, s)
-        slope = 0.0 if u_top is None else u_top / params.h
         delta = jnp.maximum(wall_x + slope * y_pt - x_pt, 0.0)
         e = e + 0.5 * params.kn_wall[j] * delta**2 + 0.5 * state.fs_wall[j] ** 2 / params.ks_wall[j]
     return e
 
 
-def _face_energy(params: DemParams, state: DemState, c, s, u_top=None):
+def _face_energy(params: DemParams, state: DemState, c, s, wall=None):
     """Spring energy of the integrated faces [J]: ``kn_line delta^2 / 2`` integrated exactly
     over the closed interval, and ``f_s^2 / (2 ks_line length)`` of each face's shear spring."""
     e = 0.0
     faces = [(False, state.fs_base)] + ([(True, state.fs_wall)] if len(state.fs_wall) else [])
-    for wall, (f_s,) in faces:
-        if wall:
+    for is_wall, (f_s,) in faces:
+        if is_wall:
             lo, hi = -0.5 * params.h, 0.5 * params.h
-            wall_x = -0.5 * params.b - params.gap
-            slope = 0.0 if u_top is None else u_top / params.h
+            wall_x, slope, _, _ = _wall_geometry(params, wall)
 
             def pen(t):
                 _, _, x_pt, y_pt, _, _ = _point_kinematics(state, -0.5 * params.b, t, c, s)
@@ -823,7 +875,7 @@ def run_prepared(
     displacement and velocity at the block's height ``h`` relative to the base, at the record
     samples, linear in between (a one-sided ``params`` only; None: a fixed wall). With
     ``"energy"`` in ``save`` the work done by the wall on the block [J] since ``t = 0`` is
-    returned as ``extras["work_wall"]``.
+    returned as ``extras["work_wall"]`` (zeros for a fixed wall).
 
     ``n``: the true number of samples (an integer array: data, not a shape), when ``ag`` and
     the other series are padded beyond it (:func:`rockjax.compilation.pad_to`); None: all.
@@ -866,8 +918,7 @@ def run_prepared(
         vx, vy, w = state.vx + 0.5 * dt * ax, state.vy + 0.5 * dt * ay, state.w + 0.5 * dt * aw
         out = {"theta": state.theta, "theta_dot": w, "d": d, "x": state.x, "y": state.y}
         if "energy" in save:
-            u_top = w0[0] if moving else None
-            out["energy"] = _energy(params, state, vx, vy, w, state.c, state.s, u_top)
+            out["energy"] = _energy(params, state, vx, vy, w, state.c, state.s, w0)
         if "forces" in save:
             out["normal_forces"] = jnp.stack(fn, axis=-1)
         if work:
@@ -925,17 +976,15 @@ def run_prepared(
         (z, overturned, status, *_), out = _scan_to(outer, carry0, xs, n)
     if throw:
         for code in (STATUS_BAD_INPUT, STATUS_UNSTABLE, STATUS_NONFINITE):
-            msg = (
-                f"rockjax.simulate_dem: {STATUS_MESSAGES[code]}. "
-                "Pass throw=False to get a per-run status instead."
-            )
-            out["theta"] = eqx.error_if(out["theta"], status == code, msg)
+            out["theta"] = eqx.error_if(out["theta"], status == code, _failure_message(code))
     final = _unpack(z, n_base, n_wall)
     extras = {"x": out["x"], "y": out["y"], "d_max": final.d_max, "dt": dt}
     if "normal_forces" in out:
         extras["normal_forces"] = out["normal_forces"]
     if work:
         extras["work_wall"] = out["work_wall"] - out["work_wall"][0]
+    elif n_wall and "energy" in save:  # a fixed wall does no work
+        extras["work_wall"] = jnp.zeros_like(out["theta"])
     return Response(
         t=jnp.arange(ag.shape[0]) * dt_out,
         theta=out["theta"],
@@ -1046,10 +1095,13 @@ def simulate_dem(
         beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
         throw: Raise (also inside ``jit``) if the run fails; if False, report ``Response.status``.
         wall_motion: A return wall that moves relative to the base (``mode="one_sided"`` only;
-            None: fixed). Its contact line is ``x = -b/2 - gap + u_top(t) y / h`` (``y`` above
-            the base), i.e. the wall rotates by ``u_top / h`` about the base (docs/pushover.md,
-            "Moving return walls"). Either a pair ``(u_top, v_top)`` of arrays [m], [m/s] with
-            one value per record sample (the wall's displacement and velocity at height ``h``
+            None: fixed). The wall is the block's back face rocked rigidly to
+            ``theta_w = u_top / h`` (about the toe for ``theta_w > 0``, the heel otherwise):
+            its contact line is ``x = -b/2 - gap + theta_w y - (b/2) theta_w^2`` to second
+            order (``y`` above the base; docs/pushover.md, "Moving return walls"), so a facade
+            riding on it at ``theta = theta_w`` lies flush, as in ``simulate_housner``.
+            Either a pair ``(u_top, v_top)`` of arrays [m], [m/s] with one value per record
+            sample (the wall's displacement and velocity at height ``h``
             relative to the base, ``u_top > 0`` toward the facade; traceable, so ``jit``/``vmap``
             over wall histories work), or what ``rockjax.building.wall_top_motion`` accepts (a
             ``ShearBuilding``, the wall's absolute acceleration as a ``GroundMotion``, or
@@ -1122,7 +1174,7 @@ def simulate_dem(
     n_record = None if motion is None else np.shape(motion.ag)[0]
     ag, ag_v, dt_out = prepare_motion(motion, duration, save_dt)
     wall = None
-    if mode == "one_sided":
+    if wall_motion is not None:  # a fixed wall takes the path without wall arrays
         wall = _wall_arrays(wall_motion, motion, block, ag, dt_out, n_record)
     accuracy = _check_accuracy(accuracy, mode, joint)
     limit, dt_default = _concrete_steps(params, block, beta_max, joint, mode, dt, accuracy)
@@ -1157,7 +1209,7 @@ def simulate_dem(
     n_out = ag.shape[0]
     n_pad = padded_length(n_out)
     notice_once(
-        ("dem", n_pad, n_in, dt_out, mode, joint, save, throw),
+        ("dem", n_pad, n_in, dt_out, mode, joint, save, wall is None),
         f"rockjax: compiling the DEM solver for records of <= {n_pad} samples, {n_in} steps a "
         "sample (once per session)...",
     )
@@ -1170,11 +1222,31 @@ def simulate_dem(
         dt_out,
         n_in,
         save,
-        throw,
+        # An eager call checks in Python, after the run: a compiled program with error
+        # callbacks (eqx.error_if) cannot go into the persistent compilation cache.
+        False,
         None if wall is None else tuple(pad_to(a, n_pad) for a in wall),
         n=np.asarray(n_out, dtype=np.int32),
     )
+    if throw:
+        _raise_on_failure(int(resp.status))
     return _cut(resp, n_out)
+
+
+def _failure_message(code: int) -> str:
+    return (
+        f"rockjax.simulate_dem: {STATUS_MESSAGES[code]}. "
+        "Pass throw=False to get a per-run status instead."
+    )
+
+
+def _raise_on_failure(status: int) -> None:
+    """The errors ``throw`` asks for, raised after an eager run with the messages
+    ``eqx.error_if`` gives under a transform (:func:`run_prepared`)."""
+    if status == STATUS_BAD_INPUT:
+        raise ValueError(_failure_message(status))
+    if status != STATUS_OK:
+        raise RuntimeError(_failure_message(status))
 
 
 def padded_length(n: int) -> int:
@@ -1213,20 +1285,27 @@ def _cut(resp: Response, n: int) -> Response:
 
 
 def _wall_arrays(wall_motion, motion, block, ag, dt_out, n_record):
-    """``(u_top, v_top)`` [m, m/s] at the run's samples (zeros for a fixed wall: one compiled
-    facade path whether or not the wall moves)."""
+    """``(u_top, v_top)`` [m, m/s] of a moving wall at the run's samples."""
     n = ag.shape[0]
     xp = np if concrete(ag) is not None else jnp
-    if wall_motion is None:
-        return xp.zeros(n), xp.zeros(n)
+    n_rec = n if n_record is None else n_record
     if _is_array_pair(wall_motion):
         u, v = wall_motion
     else:
-        from .building import wall_top_motion  # lazily: building imports the simulators
+        from .building import ShearBuilding, wall_top_motion  # lazily: building imports dem
 
         gm = motion if motion is not None else GroundMotion.zeros(n * dt_out, dt_out)
-        u, v = wall_top_motion(wall_motion, gm, block.h)
-    n_rec = n if n_record is None else n_record
+        ag = concrete(gm.ag)
+        if isinstance(wall_motion, ShearBuilding) and ag is not None and not is_traced(wall_motion):
+            # the building's solve, compiled per record length, runs on the record padded to
+            # its bucket (its last sample repeated; the solve is causal, so the first n_rec
+            # samples are the same), then cut on the host: one compilation per bucket
+            n_bucket = padded_length(n_rec)
+            gm = GroundMotion(ag=np.pad(ag, (0, n_bucket - n_rec), mode="edge"), dt=gm.dt)
+            u, v = wall_top_motion(wall_motion, gm, block.h)
+            u, v = np.asarray(u)[:n_rec], np.asarray(v)[:n_rec]
+        else:
+            u, v = wall_top_motion(wall_motion, gm, block.h)
     for name, a in (("u_top", u), ("v_top", v)):
         if np.shape(a) != (n_rec,):
             raise ValueError(

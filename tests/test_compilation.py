@@ -187,8 +187,6 @@ def _dem_unpadded(block, gm, resp, *, mode="two_sided", gap=0.0, beta=0.0, save=
     dt = float(resp.extras["dt"])
     n_in = round(gm.dt / dt)
     ag = np.asarray(gm.ag, dtype=float)
-    if mode == "one_sided" and wall is None:
-        wall = (np.zeros(gm.n), np.zeros(gm.n))
     return dem.run_prepared(
         params, dem.initial_state(params), ag, np.zeros_like(ag), np.asarray(dt), gm.dt, n_in,
         save, True, wall,
@@ -308,7 +306,7 @@ def test_dem_traced_records_are_not_padded(parapet):
 
 
 def test_a_compiling_dem_call_says_so_once(parapet, caplog):
-    kw = dict(save=("forces",), throw=False)  # a configuration that no other test compiles
+    kw = dict(save=("forces", "energy"))  # a configuration that no other test compiles
     with caplog.at_level(logging.INFO, logger="rockjax"):
         r1 = rj.simulate_dem(parapet, _dem_pulse(200), **kw)
         r2 = rj.simulate_dem(parapet, _dem_pulse(260), **kw)
@@ -319,3 +317,90 @@ def test_a_compiling_dem_call_says_so_once(parapet, caplog):
         f"{n_in} steps a sample (once per session)..."
     ]
     assert r2.extras["normal_forces"].shape[0] == 260
+
+
+def _has_callback(fn, *args):
+    """Whether the compiled program of ``fn(*args)`` calls back into Python (what
+    ``eqx.error_if`` compiles to; such a program is never written to the persistent cache)."""
+    text = jax.jit(fn).lower(*args).as_text()
+    return "callback" in text
+
+
+def test_an_eager_dem_call_compiles_no_error_callback(parapet):
+    # The eager program checks its status in Python after the run (so it can enter the
+    # persistent cache); under the caller's jit, throw=True still compiles eqx.error_if.
+    gm = _dem_pulse(50)
+    dt = rj.stable_dt(parapet)
+    params = dem.dem_params(parapet)
+    s0 = dem.initial_state(params)
+    ag = jnp.asarray(gm.ag)
+
+    def run(throw):
+        def f(a):
+            return dem.run_prepared(
+                params, s0, a, jnp.zeros_like(a), np.asarray(dt), DEM_DT, 1, (), throw
+            ).theta
+
+        return f
+
+    assert _has_callback(run(True), ag)
+    assert not _has_callback(run(False), ag)
+    rj.simulate_dem(parapet, gm, dt=dt, throw=False)
+    # throw=True runs the program throw=False compiled, and checks the status in Python
+    again, r = _count_compiles(lambda: rj.simulate_dem(parapet, gm, dt=dt, throw=True))
+    assert not again and int(r.status) == rj.response.STATUS_OK
+
+
+_SECOND_DEM_PROCESS = _SECOND_PROCESS.replace(
+    "rj.simulate_housner(block, gm)", "rj.simulate_dem(block, gm, beta=1e-3)"
+)
+
+
+@pytest.mark.slow
+def test_a_second_process_loads_the_dem_from_the_cache(tmp_path):
+    # As for the Housner solver: the eager DEM program carries no error callback, so the first
+    # process writes it to the cache and the second (another length, same bucket) loads it.
+    env = os.environ | {compilation.CACHE_ENV: str(tmp_path / "cache")}
+
+    def cache_hits(duration):
+        out = subprocess.run(
+            [sys.executable, "-c", _SECOND_DEM_PROCESS, str(duration)],
+            env=env,
+            capture_output=True,
+            text=True,
+        )
+        assert out.returncode == 0, out.stderr
+        assert "compiling the DEM solver" in out.stderr, out.stderr
+        return int(out.stdout.split()[-1])
+
+    assert cache_hits(4.0) == 0
+    assert any(path.name.startswith("jit_run_prepared") for path in (tmp_path / "cache").iterdir())
+    assert cache_hits(6.0) >= 1
+
+
+def test_dem_in_a_building_compiles_once_per_bucket():
+    # A facade whose return walls move with a building: the building's response is solved on
+    # the record padded to the DEM's bucket, so records of other lengths in that bucket
+    # compile nothing (neither the building nor the DEM); reference for the values: the wall
+    # history from the unpadded record, as array pairs.
+    from rockjax.building import ShearBuilding, wall_top_motion
+
+    facade = rj.Block(b=0.2, h=1.5)
+    bldg = ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.2, damping=0.05)
+    # corner contacts: the smaller program (the first call compiles for ~6 s)
+    kw = dict(mode="one_sided", beta=1e-3, gap=1e-3, joint=rj.Joint(n_sub=2))
+    rj.simulate_dem(facade, _dem_pulse(150, amp_g=0.5), wall_motion=bldg, **kw)
+    compiles, resps = _count_compiles(
+        lambda: [
+            rj.simulate_dem(facade, _dem_pulse(n, amp_g=0.5), wall_motion=bldg, **kw)
+            for n in (170, 190)
+        ]
+    )
+    assert compiles == []
+    gm = _dem_pulse(190, amp_g=0.5)
+    u, v = wall_top_motion(bldg, gm, 1.5)
+    ref = rj.simulate_dem(facade, gm, wall_motion=(np.asarray(u), np.asarray(v)), **kw)
+    assert resps[-1].theta.shape == (190,)
+    assert float(ref.theta_max) > 0.1 * float(facade.eta)  # it rocks
+    scale = float(np.max(np.abs(ref.theta)))
+    np.testing.assert_allclose(resps[-1].theta, ref.theta, rtol=0, atol=DEM_SAME_RTOL * scale)

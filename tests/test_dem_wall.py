@@ -22,8 +22,9 @@ DT_OUT = 0.002  # [s] record step of the synthetic wall histories
 SAME_RTOL = 1e-12  # a zero wall motion is the fixed wall: same arithmetic up to fusion order
 KINEMATIC_TOL = 0.01  # [-] of u_top / h: the wall contact's compression (~1e-6 m over h) and
 # the lag of a damped block following a 2 s push (measured 1.4e-3)
-CLOSURE_TOL = 1e-3  # [-] of the wall's peak work: central differences balance the energy to
-# O(dt^2) (measured 3.1e-4 at the default step)
+CLOSURE_TOL = 5e-3  # [-] of the wall's peak work (6.7 J, the block lifted): central differences
+# balance the energy to O(dt^2), the error made where the block lands back on its base
+# (measured 2.8e-3 at the default step, 7.4e-4 at half of it)
 DISSIPATION_TOL = 1e-3  # [-] of the wall's peak work: the same O(dt^2) wobble
 GRAD_RTOL = 1e-3  # AD vs central differences of a smooth response (measured 2.5e-6)
 FD_STEP = 1e-6  # [s] relative step of the beta finite difference
@@ -65,15 +66,18 @@ def _batch_dt(facade):
 
 
 def test_zero_wall_motion_is_the_fixed_wall(facade):
-    """Reference: the fixed-wall code path (run_prepared without wall arrays)."""
+    """Reference: the fixed-wall code path (no wall arrays: what ``wall_motion=None`` runs)."""
     gm = _pulse(N_BATCH)
     dt = _batch_dt(facade)
-    kw = dict(mode="one_sided", beta=BETA_BATCH, gap=0.002, dt=dt)
+    kw = dict(mode="one_sided", beta=BETA_BATCH, gap=0.002, dt=dt, save=("energy",))
     z = np.zeros(gm.n)
     moving = rj.simulate_dem(facade, gm, wall_motion=(z, z), **kw)
     default = rj.simulate_dem(facade, gm, **kw)
-    np.testing.assert_array_equal(np.asarray(moving.theta), np.asarray(default.theta))
-    # the path without any wall arrays (what two-sided runs take)
+    peak = float(np.max(np.abs(default.theta)))
+    np.testing.assert_allclose(moving.theta, default.theta, rtol=0, atol=SAME_RTOL * peak)
+    # a fixed wall does no work: reported as zeros
+    np.testing.assert_array_equal(np.asarray(default.extras["work_wall"]), z)
+    # run_prepared without wall arrays, called directly
     params = dem.dem_params(facade, BETA_BATCH, mode="one_sided", gap=0.002)
     s0 = dem.initial_state(params)
     n_in = round(gm.dt / float(moving.extras["dt"]))
@@ -82,6 +86,7 @@ def test_zero_wall_motion_is_the_fixed_wall(facade):
     scale = float(np.max(np.abs(fixed.theta)))
     assert scale > 0.1 * float(facade.eta)  # it rocks
     np.testing.assert_allclose(moving.theta, fixed.theta, rtol=0, atol=SAME_RTOL * scale)
+    np.testing.assert_allclose(default.theta, fixed.theta, rtol=0, atol=SAME_RTOL * scale)
 
 
 @pytest.mark.skipif(
@@ -134,7 +139,7 @@ def test_wall_work_closes_the_energy_balance(facade):
         save=("energy",),
     )
     e, work = np.asarray(r.energy), np.asarray(r.extras["work_wall"])
-    assert work.max() > 100.0  # [J] the wall does real work (stiff sticking shear springs)
+    assert work.max() > 1.0  # [J] the wall does real work (it lifts the block)
     err = np.max(np.abs(e - e[0] - work))
     assert err < CLOSURE_TOL * work.max(), (err, work.max())
 
