@@ -1603,9 +1603,21 @@ def _wall_series(wall_motion, motion: GroundMotion, block: Block, n_out: int):
             if c is not None and not np.all(np.isfinite(c)):
                 raise ValueError(f"wall_motion's {name} must be finite (m, m/s); clean it first.")
     else:
-        from .building import wall_top_motion  # optional layer: imported only when used
+        from .building import ShearBuilding, wall_top_motion  # imported only when used
 
-        u, v = wall_top_motion(wall_motion, motion, block.h)
+        ag = concrete(motion.ag)
+        if isinstance(wall_motion, ShearBuilding) and ag is not None and not is_traced(wall_motion):
+            # the building's solve compiles per record length: run it on the record padded to
+            # its bucket (the last sample repeated; the solve is causal, so the record's own
+            # samples are unchanged) and cut on the host, one compilation per bucket
+            n = ag.shape[0]
+            padded = GroundMotion(
+                ag=np.pad(ag, (0, bucket_length(n) - n), mode="edge"), dt=motion.dt
+            )
+            u, v = wall_top_motion(wall_motion, padded, block.h)
+            u, v = np.asarray(u)[:n], np.asarray(v)[:n]
+        else:
+            u, v = wall_top_motion(wall_motion, motion, block.h)
     # NumPy when concrete: eager jnp ops on a new length would each compile once.
     vals = [concrete(x) for x in (u, v, block.h)]
     xp = jnp if any(x is None for x in vals) else np
