@@ -179,6 +179,7 @@ def test_jit_matches_eager_and_vmap_matches_loop(parapet):
     np.testing.assert_allclose(jitted, looped[1], rtol=1e-12)
 
 
+@pytest.mark.slow  # ~40 s; grad w.r.t. beta on the default joint: test_face_jit_vmap_and_grad
 def test_jvp_and_grad_wrt_beta_match_finite_differences(parapet):
     """Reference: central finite differences of a scalar output (theta at t = 2 s)."""
     beta0 = 0.5 * rj.beta_dejong(parapet)

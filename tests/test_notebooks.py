@@ -10,6 +10,10 @@ from nbclient import NotebookClient
 NOTEBOOKS = sorted((pathlib.Path(__file__).parents[1] / "docs" / "notebooks").glob("*.ipynb"))
 
 
+# Slow (five notebooks, ~6 min of one worker): the documentation build (./docs.sh, run by CI
+# with --strict) executes every notebook and fails on a cell that raises; run these with
+# ./test.sh -m slow to check the notebooks without building the site.
+@pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_runs(path, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
