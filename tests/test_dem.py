@@ -98,6 +98,7 @@ def test_first_impact_time_matches_housner_quadrature(parapet):
     assert abs(t_dem - t_ref) / t_ref < IMPACT_TIME_RTOL, (t_dem, t_ref)
 
 
+@pytest.mark.slow  # ~20 s each; the step's convergence: test_first_impact_e_observed_order
 @pytest.mark.parametrize("geometry", [PARAPET, SQUAT])
 def test_halving_dt_changes_peak_little(geometry):
     """Reference: self-convergence (the same run at dt/2)."""
