@@ -67,7 +67,7 @@ from .contact import Joint
 from .dem import simulate_dem, stable_dt
 from .housner import P_DT_TARGET, simulate_housner
 from .motion import GroundMotion
-from .multiblock import simulate_assembly, stable_dt_assembly
+from .multiblock import check_storey, simulate_assembly, stable_dt_assembly, storey_supports
 from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
@@ -352,16 +352,7 @@ def _check_support(block, support_motion, storey) -> int:
             f"record moves the wall's supports); got {type(support_motion).__name__}. Build one "
             "with rj.ShearBuilding.uniform(n_storeys, storey_height, period)."
         )
-    storey = 1 if storey is None else storey
-    n = support_motion.n_storeys
-    top_max = n if block.top == "restrained" else n + 1
-    if not (isinstance(storey, int) and not isinstance(storey, bool) and 1 <= storey <= top_max):
-        raise ValueError(
-            f"storey (1-based storey the wall stands in) must be an integer in 1..{top_max} "
-            f"for this {n}-storey building and a {block.top} top; got storey={storey!r}. "
-            "Storey i stands on floor i - 1 (0 the ground); a restrained top needs floor i."
-        )
-    return storey
+    return check_storey(support_motion, 1 if storey is None else storey, block.top)
 
 
 class CollapseIntervals(NamedTuple):
@@ -808,14 +799,8 @@ def _support_histories(building, ag, dt: float, storey: int, restrained: bool):
     in a single run."""
 
     def one(a):
-        resp = building.response(GroundMotion(ag=a, dt=dt))
-        base = a if storey == 1 else resp.acceleration[storey - 2]
-        if not restrained:
-            return (base,)
-        u, v = resp.displacement[storey - 1], resp.velocity[storey - 1]
-        if storey > 1:
-            u, v = u - resp.displacement[storey - 2], v - resp.velocity[storey - 2]
-        return base, u, v
+        base, top = storey_supports(building, a, dt, storey, restrained)
+        return (base,) if top is None else (base, *top)
 
     return jax.vmap(one)(ag)
 

@@ -1132,16 +1132,32 @@ def _in_building(building, storey, assembly: Assembly, motion, ag, dt_out):
             "support_motion needs motion=<rockjax.GroundMotion>, the ground motion under the "
             "building (its floors move only under a record)."
         )
+    check_storey(building, storey, assembly.top)
+    return storey_supports(building, ag, dt_out, storey, assembly.top == "restrained")
+
+
+def check_storey(building: ShearBuilding, storey, top: str) -> int:
+    """``storey`` checked for a wall with a ``top`` ("free" or "restrained") in ``building``:
+    an integer, 1 to ``n_storeys`` for a restrained top (it needs the floor above), up to
+    ``n_storeys + 1`` (the roof) for a free one. Raises ValueError with the fix."""
     n = building.n_storeys
-    restrained = assembly.top == "restrained"
-    top_max = n if restrained else n + 1
+    top_max = n if top == "restrained" else n + 1
     if not (isinstance(storey, int) and not isinstance(storey, bool) and 1 <= storey <= top_max):
         raise ValueError(
             f"storey (1-based storey the wall stands in) must be an integer in 1..{top_max} "
-            f"for this {n}-storey building and a {assembly.top} top; got storey={storey!r}. "
+            f"for this {n}-storey building and a {top} top; got storey={storey!r}. "
             f"Storey i stands on floor i - 1 (0 the ground); a restrained top needs floor i."
         )
-    resp = building.response(GroundMotion(ag=ag, dt=dt_out))
+    return storey
+
+
+def storey_supports(building: ShearBuilding, ag, dt, storey: int, restrained: bool):
+    """What a wall in storey ``storey`` of ``building`` stands on and is held by, under the
+    ground acceleration ``ag`` [m/s^2] at step ``dt`` [s]: the base floor's absolute
+    acceleration [m/s^2] (``ag`` itself for storey 1) and, for a restrained top, the top
+    floor's displacement [m] and velocity [m/s] relative to the base floor (else None), from
+    the building's exact response (:meth:`rockjax.ShearBuilding.response`)."""
+    resp = building.response(GroundMotion(ag=ag, dt=dt))
     base = storey - 1
     if base > 0:
         ag = resp.acceleration[base - 1]
