@@ -1,10 +1,32 @@
-import jax
-import jaxtyping
-import pytest
+import os
+import shutil
+import tempfile
 
-import rockjax  # noqa: F401  (enables float64)
+# One persistent compilation cache for the whole run, shared by the pytest-xdist workers (they
+# inherit the variable from the controller, which imports this file first) and by the
+# processes tests start: most of the suite's time is compiling, and the workers and the
+# subprocesses compile many of the same programs. Set before JAX is imported; a cache the
+# user points to is left alone. Tests that count compilations count cache hits as well
+# (``helpers.count_compiles``).
+_CACHE_VAR = "JAX_COMPILATION_CACHE_DIR"
+_OWN_CACHE = None
+if not os.environ.get(_CACHE_VAR):
+    _OWN_CACHE = tempfile.mkdtemp(prefix="rockjax-tests-xla-")
+    os.environ[_CACHE_VAR] = _OWN_CACHE
+    os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.2")
+
+import jax  # noqa: E402
+import jaxtyping  # noqa: E402
+import pytest  # noqa: E402
+
+import rockjax  # noqa: E402, F401  (enables float64)
 
 jax.config.update("jax_numpy_rank_promotion", "raise")
+
+
+def pytest_unconfigure(config):
+    if _OWN_CACHE is not None and not hasattr(config, "workerinput"):  # the controller's own
+        shutil.rmtree(_OWN_CACHE, ignore_errors=True)
 
 
 @pytest.fixture

@@ -53,3 +53,29 @@ def run_cli(argv):
         except SystemExit as exit_:  # argparse
             rc = exit_.code
     return rc, stdout.getvalue(), stderr.getvalue()
+
+
+@contextlib.contextmanager
+def count_compiles():
+    """Collect, in the yielded list, one entry per program that had to be compiled or loaded
+    from the persistent compilation cache while the block runs (the suite shares a cache
+    between its processes: a cache hit must not hide a compilation)."""
+    import jax
+
+    events = []
+
+    def on_duration(event, seconds, **kwargs):
+        if event == "/jax/core/compile/backend_compile_duration":
+            events.append(("compiled", seconds))
+
+    def on_event(event, **kwargs):
+        if event == "/jax/compilation_cache/cache_hits":
+            events.append(("cache hit", 0.0))
+
+    jax.monitoring.register_event_duration_secs_listener(on_duration)
+    jax.monitoring.register_event_listener(on_event)
+    try:
+        yield events
+    finally:
+        jax.monitoring.unregister_event_duration_listener(on_duration)
+        jax.monitoring.unregister_event_listener(on_event)

@@ -18,31 +18,33 @@ import rockjax as rj
 
 pytest.importorskip("distributed")
 
+# Long enough per part that the kill lands between parts, short enough for the suite.
+DURATION, N_SCALES = 6.0, 32
 SCRIPT = textwrap.dedent(
-    """
+    f"""
     import sys
     import numpy as np
     import rockjax as rj
 
     def main(out, via_address):
         recs = [
-            rj.GroundMotion.ricker(pga=3.0, period=0.3 + 0.05 * k, duration=24.0, dt=0.005,
+            rj.GroundMotion.ricker(pga=3.0, period=0.3 + 0.05 * k, duration={DURATION}, dt=0.005,
                                    name="ricker" + "-" * k)
             for k in range(6)
         ]
         block = rj.Block(b=0.17, h=1.5)
         cases = [rj.campaign.Case("facade_dem", block, "pulses", model="dem",
                                   mode="one_sided", beta=2e-4)]
-        kw = dict(scales=np.linspace(0.1, 3.0, 96), records_per_task=1, progress=False)
+        kw = dict(scales=np.linspace(0.1, 3.0, {N_SCALES}), records_per_task=1, progress=False)
         if via_address:  # a scheduler reached by its address, as on a cluster
             from dask.distributed import LocalCluster
 
             with LocalCluster(
                 n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
             ) as c:
-                rj.campaign.run(cases, {"pulses": recs}, out, scheduler=c.scheduler_address, **kw)
+                rj.campaign.run(cases, {{"pulses": recs}}, out, scheduler=c.scheduler_address, **kw)
         else:  # the default: a LocalCluster started by run()
-            rj.campaign.run(cases, {"pulses": recs}, out, n_workers=1, **kw)
+            rj.campaign.run(cases, {{"pulses": recs}}, out, n_workers=1, **kw)
 
     if __name__ == "__main__":
         main(sys.argv[1], sys.argv[2] == "address")
@@ -127,21 +129,21 @@ def test_killed_campaign_resumes_to_the_uninterrupted_dataset(tmp_path):
 
     resumed, uninterrupted = rj.campaign.load(killed), rj.campaign.load(clean)
     ds, ref = resumed["facade_dem"], uninterrupted["facade_dem"]
-    assert ds.sizes == {"record": N_PARTS, "scale": 96}
+    assert ds.sizes == {"record": N_PARTS, "scale": N_SCALES}
     _equal(ds, ref)
     assert 0 < int(ds["collapse"].sum()) < ds["collapse"].size  # both outcomes present
 
     # and both equal one rj.ida call on the whole set (the parts run the set's t_end)
     recs = [
         rj.GroundMotion.ricker(
-            pga=3.0, period=0.3 + 0.05 * k, duration=24.0, dt=0.005, name="ricker" + "-" * k
+            pga=3.0, period=0.3 + 0.05 * k, duration=DURATION, dt=0.005, name="ricker" + "-" * k
         )
         for k in range(N_PARTS)
     ]
     one = rj.ida(
         rj.Block(b=0.17, h=1.5),
         recs,
-        np.linspace(0.1, 3.0, 96),
+        np.linspace(0.1, 3.0, N_SCALES),
         model="dem",
         mode="one_sided",
         beta=2e-4,

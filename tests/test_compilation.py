@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import count_compiles
 
 import rockjax as rj
 from rockjax import compilation, dem
@@ -209,17 +210,8 @@ def parapet():
 
 
 def _count_compiles(run):
-    compiles = []
-
-    def listener(event, seconds, **kwargs):
-        if event == "/jax/core/compile/backend_compile_duration":
-            compiles.append(seconds)
-
-    jax.monitoring.register_event_duration_secs_listener(listener)
-    try:
+    with count_compiles() as compiles:
         out = run()
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listener)
     return compiles, out
 
 

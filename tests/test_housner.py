@@ -18,7 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import housner_time_to_impact
+from helpers import count_compiles, housner_time_to_impact
 from scipy.integrate import quad
 
 import rockjax as rj
@@ -542,20 +542,11 @@ def test_padded_run_equals_the_unpadded_one(block):
 
 
 def test_records_of_other_lengths_and_steps_do_not_compile_again(block):
-    compiles = []
-
-    def listener(event, seconds, **kwargs):
-        if event == "/jax/core/compile/backend_compile_duration":
-            compiles.append(seconds)
-
     rj.simulate_housner(block, _pulse(300, 0.01))  # compiles the bucket's solver (or reuses it)
-    jax.monitoring.register_event_duration_secs_listener(listener)
-    try:
+    with count_compiles() as compiles:
         for n, dt in ((311, 0.01), (520, 0.02), (1234, 0.005)):
             resp = rj.simulate_housner(block, _pulse(n, dt))
             assert resp.theta.shape == (n,) and np.asarray(resp.extras["n_impacts"])[-1] >= 1
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listener)
     assert compiles == []
 
 
