@@ -176,3 +176,38 @@ def time_steps(t: np.ndarray, rtol: float) -> TimeSteps:
         worst=int(np.argmax(dev)),
         off=dev > rtol * abs(mean),
     )
+
+
+def is_array_pair(x) -> bool:
+    """Whether ``x`` is a tuple of two arrays (NumPy or JAX), as ``(u_top, v_top)`` histories
+    are given, as opposed to a model object or a list of ``(height, GroundMotion)`` pairs."""
+    return (
+        isinstance(x, tuple)
+        and len(x) == 2
+        and all(isinstance(a, np.ndarray | jax.Array) for a in x)
+    )
+
+
+def check_series_pair(arg: str, names: tuple[str, str], pair, n: int, fix: str) -> None:
+    """The one home of the check of a pair of histories (a wall's or a restraint's
+    displacement and velocity): each has one value per record sample, shape ``(n,)``, and is
+    finite where concrete (traced values are checked by the simulators in-graph).
+
+    Args:
+        arg: The argument the pair came in, e.g. ``"wall_motion"``.
+        names: The two series' names with their units, e.g. ``("u_top [m]", "v_top [m/s]")``.
+        pair: The two series.
+        n: The number of samples each must have.
+        fix: How to make a series of the right length, for the message.
+    """
+    for name, a in zip(names, pair, strict=True):
+        if np.shape(a) != (n,):
+            raise ValueError(
+                f"{arg}: {name} must have one value per record sample, shape ({n},); got shape "
+                f"{np.shape(a)}. {fix}"
+            )
+        a_c = concrete(a)
+        if a_c is not None and not np.all(np.isfinite(a_c)):
+            raise ValueError(
+                f"{arg}: {name} contains non-finite values (NaN or inf); clean it first."
+            )

@@ -94,7 +94,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._checks import check_choice, check_positive, check_samples, check_scalar, concrete
+from ._checks import (
+    check_choice,
+    check_positive,
+    check_samples,
+    check_scalar,
+    check_series_pair,
+    concrete,
+)
 from .block import Block
 from .compilation import bucket_length, is_traced, notice_once, pad_to
 from .constants import G
@@ -1633,16 +1640,13 @@ def _wall_series(wall_motion, motion: GroundMotion, block: Block, n_out: int):
         and all(_is_series(w) for w in wall_motion)
     ):
         u, v = wall_motion
-        for name, w in (("u_top", u), ("v_top", v)):
-            if jnp.shape(w) != jnp.shape(motion.ag):
-                raise ValueError(
-                    f"wall_motion's {name} must have one value per record sample, shape "
-                    f"{jnp.shape(motion.ag)}; got shape {jnp.shape(w)}. Give the wall's "
-                    "displacement [m] and velocity [m/s] at t = k * motion.dt."
-                )
-            c = concrete(w)
-            if c is not None and not np.all(np.isfinite(c)):
-                raise ValueError(f"wall_motion's {name} must be finite (m, m/s); clean it first.")
+        check_series_pair(
+            "wall_motion",
+            ("u_top [m]", "v_top [m/s]"),
+            (u, v),
+            motion.n,
+            "Give the wall's displacement and velocity at t = k * motion.dt.",
+        )
     else:
         from .building import ShearBuilding, wall_top_motion  # imported only when used
 
