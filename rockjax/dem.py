@@ -1067,8 +1067,8 @@ def simulate_dem(
     Args:
         block: The block (geometry and material), or an :class:`rockjax.Assembly` of several
             blocks: that runs :func:`rockjax.simulate_assembly` (per-block ``theta``, ``x``,
-            ``y``; ``mode``, ``gap``, ``wall_motion`` and ``save="forces"`` do not apply, the
-            assembly carries its own supports) and returns its
+            ``y``; ``mode="one_sided"`` and ``gap`` put every block's back face on a fixed
+            return wall; ``wall_motion`` and ``save="forces"`` do not apply) and returns its
             :class:`rockjax.AssemblyResponse`.
         motion: Ground motion; ``None`` for free rocking (then ``duration`` is required).
         beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1), alpha = 0.
@@ -1333,15 +1333,17 @@ def _is_array_pair(x):
 def _simulate_assembly(
     assembly, motion, *, mode, gap, wall_motion, phi_deg, support_motion, storey, **kw
 ):
-    """``simulate_dem`` on an :class:`Assembly`: :func:`rockjax.simulate_assembly`."""
+    """``simulate_dem`` on an :class:`Assembly`: :func:`rockjax.simulate_assembly` (``mode``
+    and ``gap``: its blocks' back faces on fixed return walls)."""
     from .multiblock import simulate_assembly  # imports this module: imported at call time
 
-    if mode != "two_sided" or wall_motion is not None or (concrete(gap) or 0.0) != 0.0:
+    if wall_motion is not None:
         raise ValueError(
-            "an Assembly carries its own supports (ground, top restraint with its gap): leave "
-            f"mode, gap and wall_motion at their defaults; got mode={mode!r}, gap={gap}, "
-            f"wall_motion={'given' if wall_motion is not None else None}."
+            "wall_motion (moving return walls) applies to a single rj.Block; an Assembly's "
+            "return walls (mode='one_sided') are fixed: drop wall_motion, or run the facade as "
+            "one block."
         )
+    kw.update(mode=mode, gap=gap)
     if phi_deg is not None:
         kw["phi_deg"] = phi_deg
     if support_motion is not None or storey is not None:

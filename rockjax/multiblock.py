@@ -55,6 +55,7 @@ from .dem import (
     DT_ACCURACY,
     DT_ACCURACY_SUB,
     DT_SAFETY,
+    MODES,
     dem_params,
     initial_state,
     prepare_motion,
@@ -79,8 +80,10 @@ class AssemblyParams(eqx.Module):
     Per block (shape ``(n_blocks,)``): ``m`` [kg], ``I_c`` [kg m^2], ``b``, ``h``, ``eta``,
     ``x0`` (centre at rest [m]). Per interface ``k`` (under block ``k``): ``lo``, ``hi`` (ends
     of the contact face in block ``k``'s frame [m]), ``kn_line``, ``ks_line`` (stiffness per
-    unit face length [N/m^2]). Scalars: ``beta`` [s], ``tan_phi``, ``top_load`` [N], ``gap``
-    [m], ``k_top`` (top restraint spring [N/m])."""
+    unit face length [N/m^2], also those of block ``k``'s back face on a return wall).
+    Scalars: ``beta`` [s], ``tan_phi``, ``top_load`` [N], ``gap`` [m], ``k_top`` (top
+    restraint spring [N/m]), ``wall_gap`` (return wall behind the back faces [m]).
+    ``one_sided``: the blocks' back faces meet return walls (a facade)."""
 
     m: jax.Array
     I_c: jax.Array
@@ -97,10 +100,12 @@ class AssemblyParams(eqx.Module):
     top_load: jax.Array
     gap: jax.Array
     k_top: jax.Array
+    wall_gap: jax.Array
     n_sub: int | str = eqx.field(static=True)
     dashpot: str = eqx.field(static=True)
     onset: str = eqx.field(static=True)
     restrained: bool = eqx.field(static=True)
+    one_sided: bool = eqx.field(static=True)
 
     @property
     def n(self) -> int:
@@ -116,7 +121,8 @@ class AssemblyState(eqx.Module):
     ``x, y`` [m] (base frame, ground surface ``y = 0``), ``c, s`` (cos, sin theta), ``vx, vy``
     [m/s] and ``w`` [rad/s] at the half step, ``theta`` [rad], ``theta_max`` (running max of
     ``|theta|``); ``fs``: per interface, the shear spring force(s) [N] (one per face with the
-    integrated face law, one per sub-contact with integer ``n_sub``)."""
+    integrated face law, one per sub-contact with integer ``n_sub``); ``fs_wall``: those of
+    each block's back face on the return wall (empty without return walls)."""
 
     x: tuple
     y: tuple
@@ -128,6 +134,7 @@ class AssemblyState(eqx.Module):
     theta: tuple
     theta_max: tuple
     fs: tuple
+    fs_wall: tuple = ()
 
 
 class AssemblyResponse(eqx.Module):
@@ -167,7 +174,13 @@ class AssemblyResponse(eqx.Module):
 
 
 def assembly_params(
-    assembly: Assembly, beta=0.0, *, joint: Joint = Joint(), phi_deg=50.0
+    assembly: Assembly,
+    beta=0.0,
+    *,
+    joint: Joint = Joint(),
+    phi_deg=50.0,
+    mode: str = "two_sided",
+    gap=0.0,
 ) -> AssemblyParams:
     """Collect the assembly, joint and damping into :class:`AssemblyParams` (traceable).
 
@@ -176,7 +189,14 @@ def assembly_params(
         beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1).
         joint: The joint of every interface (:class:`rockjax.Joint`).
         phi_deg: Friction angle of every interface [deg].
+        mode: ``"two_sided"``, or ``"one_sided"``: a facade, every block's back face (-x)
+            against a return wall ``gap`` behind it.
+        gap: Distance between the back faces and the return wall at rest [m] (one-sided).
     """
+    check_choice("mode", mode, MODES)
+    check_nonnegative(
+        "gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.", scalar=True
+    )
     if not isinstance(assembly, Assembly):
         raise ValueError(
             f"assembly must be a rockjax Assembly, e.g. Assembly.stack([rj.Block(b=0.23, "
@@ -218,18 +238,21 @@ def assembly_params(
         gap=jnp.asarray(assembly.gap, float),
         # the top restraint is as stiff as the top block's whole bed joint in compression
         k_top=jnp.asarray(top.j_kn * top.b * top.length, float),
+        wall_gap=jnp.asarray(gap, float),
         n_sub=joint.n_sub,
         dashpot=joint.dashpot,
         onset=joint.onset,
         restrained=assembly.top == "restrained",
+        one_sided=mode == "one_sided",
     )
 
 
-def _springs(p: AssemblyParams, k: int):
-    """The springs of interface ``k`` for the all-closed stiffness: positions ``t`` along the
-    face [m] and the normal and shear stiffnesses [N/m] (the two-point Gauss rule of the face
-    for the integrated law: it gives the continuous joint's all-closed stiffness exactly)."""
-    lo, hi = p.lo[k], p.hi[k]
+def _springs(p: AssemblyParams, k: int, wall: bool = False):
+    """The springs of interface ``k`` (or of block ``k``'s back face on the return wall) for
+    the all-closed stiffness: positions ``t`` along the face [m] and the normal and shear
+    stiffnesses [N/m] (the two-point Gauss rule of the face for the integrated law: it gives
+    the continuous joint's all-closed stiffness exactly)."""
+    lo, hi = (-0.5 * p.h[k], 0.5 * p.h[k]) if wall else (p.lo[k], p.hi[k])
     width = hi - lo
     if p.face:
         tau = np.array([0.5 - 0.5 / math.sqrt(3.0), 0.5 + 0.5 / math.sqrt(3.0)])
@@ -267,6 +290,15 @@ def omega_max(p: AssemblyParams):
         sub = jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
         idx = jnp.asarray(cols)
         k_mat = k_mat.at[idx[:, None], idx[None, :]].add(sub)
+        if p.one_sided:
+            # the back face (-b/2, t): horizontal motion (1, 0, t), vertical (0, 1, b/2)
+            t, kn, ks = _springs(p, k, wall=True)
+            zero, one = jnp.zeros_like(t), jnp.ones_like(t)
+            a_n = jnp.stack([one, zero, t], axis=-1)
+            a_s = jnp.stack([zero, one, 0.5 * p.b[k] * one], axis=-1)
+            sub = jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
+            idx = jnp.arange(3 * k, 3 * k + 3)
+            k_mat = k_mat.at[idx[:, None], idx[None, :]].add(sub)
     if p.restrained:
         a = jnp.zeros(3 * n).at[3 * n - 3].set(1.0).at[3 * n - 1].set(0.5 * p.h[-1])
         k_mat = k_mat + p.k_top * jnp.outer(a, a)
@@ -290,25 +322,29 @@ def stable_dt_assembly(
     *,
     joint: Joint = Joint(),
     accuracy: float | None = None,
+    mode: str = "two_sided",
 ) -> float:
     """The default time step [s] of :func:`simulate_assembly` (before rounding to divide the
     output step): the rule of :func:`rockjax.stable_dt`, ``accuracy / (omega_max (1 + zeta))``,
     ``zeta = beta omega_max / 2``, at most ``DT_SAFETY`` times the stability limit, with
-    ``omega_max`` the highest frequency of the whole assembly on all its springs closed.
+    ``omega_max`` the highest frequency of the whole assembly on all its springs closed (the
+    return walls' included, one-sided).
 
     Args:
         assembly: The assembly.
         beta: Stiffness-proportional damping coefficient [s], Eq. (1).
         joint: The joint (:class:`rockjax.Joint`).
-        accuracy: ``omega_max dt (1 + zeta)`` [-]; default that of a parapet in
-            :func:`rockjax.simulate_dem` (``DT_ACCURACY`` / ``DT_ACCURACY_SUB``).
+        accuracy: ``omega_max dt (1 + zeta)`` [-]; default that of
+            :func:`rockjax.simulate_dem` for the ``mode`` (``DT_ACCURACY`` /
+            ``DT_ACCURACY_SUB``).
+        mode: ``"two_sided"`` or ``"one_sided"`` (a facade against return walls).
     """
-    p = assembly_params(assembly, beta, joint=joint)
-    return float(_steps_jit(p, _check_accuracy(accuracy, joint))[1])
+    p = assembly_params(assembly, beta, joint=joint, mode=mode)
+    return float(_steps_jit(p, _check_accuracy(accuracy, joint, mode))[1])
 
 
-def _check_accuracy(accuracy, joint):
-    default = (DT_ACCURACY if joint.face else DT_ACCURACY_SUB)["two_sided"]
+def _check_accuracy(accuracy, joint, mode="two_sided"):
+    default = (DT_ACCURACY if joint.face else DT_ACCURACY_SUB)[mode]
     if accuracy is None:
         return default
     if not (isinstance(accuracy, (int, float)) and np.isfinite(accuracy) and accuracy > 0):
@@ -472,6 +508,25 @@ def _pair_kinematics(p: AssemblyParams, st: AssemblyState, k: int):
     return kin, e1, e2, (x_rel, y_rel)
 
 
+def _wall_kinematics(p: AssemblyParams, st: AssemblyState, k: int):
+    """The back face of block ``k`` against the fixed return wall, as :func:`_pair_kinematics`
+    gives a joint: the point ``(-b_k/2, t)`` (``t`` up the face) penetrates the wall line
+    ``x = x0_k - b_k/2 - gap`` (the block's back face at rest, ``gap`` behind it) by
+    ``delta = x_wall - x``; the wall's normal is ``+x``, its tangent ``+y`` (the slip is the
+    point's vertical velocity), as on the back face of :func:`rockjax.simulate_dem`'s facade."""
+    c, s, x, y = st.c[k], st.s[k], st.x[k], st.y[k]
+    vx, vy, w = st.vx[k], st.vy[k], st.w[k]
+    hb = 0.5 * p.b[k]
+    x_wall = p.x0[k] - hb - p.wall_gap
+
+    def kin(t):
+        rx = t * s - hb * c
+        ry = t * c + hb * s
+        return rx, ry, x + rx, y + ry, x_wall - (x + rx), -(vx + w * ry), vy - w * rx
+
+    return kin, (0.0, 1.0), (1.0, 0.0), None
+
+
 def _quadratic_c(m0, m1, m2, p0, p1, q0, q1):
     """``int w (p0 + p1 tau) (q0 + q1 tau)^T`` from the moments ``m_j = int w tau^j``."""
     return [
@@ -487,16 +542,21 @@ def _quadratic_c(m0, m1, m2, p0, p1, q0, q1):
     ]
 
 
-def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt):
-    """Forces of interface ``k`` (integrated face law or point sub-contacts).
+def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = False):
+    """Forces of interface ``k`` (integrated face law or point sub-contacts), or with ``wall``
+    of block ``k``'s back face on the return wall (a fixed body, as the ground).
 
     Returns ``(F_u, F_l, C_uu, C_ll, C_ul, fs_new, fn)``: generalised forces ``(Fx, Fy, M)`` on
-    the upper and lower block (``F_l`` None for the ground), the dashpot matrix blocks, the
-    new shear springs and the total normal force [N]."""
-    kin, e1, e2, rel = _pair_kinematics(p, st, k)
-    lo, hi = p.lo[k], p.hi[k]
+    the upper and lower block (``F_l`` None for the ground and the wall), the dashpot matrix
+    blocks, the new shear springs and the total normal force [N]."""
+    if wall:
+        kin, e1, e2, rel = _wall_kinematics(p, st, k)
+        lo, hi, hist = -0.5 * p.h[k], 0.5 * p.h[k], st.fs_wall[k]
+    else:
+        kin, e1, e2, rel = _pair_kinematics(p, st, k)
+        lo, hi, hist = p.lo[k], p.hi[k], st.fs[k]
     width = hi - lo
-    ground = k == 0
+    ground = rel is None
     ends = [kin(lo), kin(hi)]
     dt_onset = dt if p.onset == "sub_step" else None
     clipped = p.dashpot == "clipped"
@@ -550,7 +610,7 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt):
     else:
         kn_i, ks_i = p.kn_line[k] * wgt, p.ks_line[k] * wgt
         f, f_el, frac = normal_force(delta, rate, kn_i, beta, p.dashpot, dt_onset)
-        fs_old = jnp.stack([jnp.asarray(v, float) for v in st.fs[k]])
+        fs_old = jnp.stack([jnp.asarray(v, float) for v in hist])
         _, fs_arr = shear_force(fs_old, slip, dt, ks_i, f_el, p.tan_phi, beta, frac)
         wf, wfn = wgt * frac, f
     wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
@@ -578,7 +638,7 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt):
     fs_pts = [fs_arr[i] for i in range(len(pts))]
     if p.face:
         kn_c, ks_c = kn, ks
-        (f_s,) = st.fs[k]
+        (f_s,) = hist
         # the resultant shear spring keeps the share of its closed length that stays closed
         # (rockjax.dem's "uniform" release); the previous penetration is delta - dt delta_dot
         ca_old, cb_old = closed_interval(lo, hi, d_lo - dt * r_lo, d_hi - dt * r_hi)
@@ -726,6 +786,13 @@ def step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load=None, top_m
             force[k - 1] = [_plus(force[k - 1][i], f_l[i]) for i in range(3)]
             cdiag[k - 1] = _add(cdiag[k - 1], c_ll)
             clow[k] = c_ul
+    fs_wall = []
+    if p.one_sided:  # a static choice: walls without return walls run none of this
+        for k in range(n):
+            f_w, _, c_w, _, _, fs_new, _ = _interface(p, st, k, dt, wall=True)
+            fs_wall.append(fs_new)
+            force[k] = [_plus(force[k][i], f_w[i]) for i in range(3)]
+            cdiag[k] = _add(cdiag[k], c_w)
     f_top, c_top = _top(p, st, dt, top_motion)
     force[n - 1] = [_plus(force[n - 1][i], f_top[i]) for i in range(3)]
     if load is not None:
@@ -766,41 +833,54 @@ def step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load=None, top_m
         new["w"].append(w)
         new["theta"].append(st.theta[k] + dth)
         new["theta_max"].append(jnp.maximum(st.theta_max[k], jnp.abs(st.theta[k])))
-    out = AssemblyState(**{key: tuple(v) for key, v in new.items()}, fs=tuple(fs_all))
+    out = AssemblyState(
+        **{key: tuple(v) for key, v in new.items()}, fs=tuple(fs_all), fs_wall=tuple(fs_wall)
+    )
     return out, acc
 
 
 # ----------------------------------------------------------------------------- energy, collapse
 
 
+def _face_energy(p: AssemblyParams, k: int, kin, lo, hi, hist):
+    """Spring energy [J] of one face of block ``k`` (``kin`` its kinematics over
+    ``[lo, hi]``, ``hist`` its shear springs): ``kn delta^2 / 2`` integrated exactly over the
+    closed part, and ``f_s^2 / (2 k_s)`` of the shear springs."""
+    e = 0.0
+    d_lo, d_hi = kin(lo)[4], kin(hi)[4]
+    if p.face:
+        ca, cb = closed_interval(lo, hi, d_lo, d_hi)
+        mid, half = 0.5 * (ca + cb), 0.5 * (cb - ca)
+        for xg in _GAUSS:
+            tau = (mid + half * xg - lo) / (hi - lo)
+            d = d_lo + tau * (d_hi - d_lo)
+            e = e + 0.5 * p.kn_line[k] * half * jnp.maximum(d, 0.0) ** 2
+        length = cb - ca
+        safe = jnp.where(length > 0.0, length, 1.0)
+        return e + jnp.where(length > 0.0, 0.5 * hist[0] ** 2 / (p.ks_line[k] * safe), 0.0)
+    n_sub = p.n_sub
+    step = (hi - lo) / (n_sub - 1)
+    for i in range(n_sub):
+        wgt = (0.5 if i in (0, n_sub - 1) else 1.0) * step
+        d = d_lo + i / (n_sub - 1) * (d_hi - d_lo)
+        e = e + 0.5 * p.kn_line[k] * wgt * jnp.maximum(d, 0.0) ** 2
+        e = e + 0.5 * hist[i] ** 2 / (p.ks_line[k] * wgt)
+    return e
+
+
 def _energy(p: AssemblyParams, st: AssemblyState, vel):
-    """Kinetic + gravity + overburden + spring energy [J] (springs integrated exactly)."""
+    """Kinetic + gravity + overburden + spring energy [J] (springs integrated exactly; the
+    return walls' too)."""
     e = 0.0
     for k in range(p.n):
         vx, vy, w = vel[k]
         e = e + 0.5 * p.m[k] * (vx**2 + vy**2) + 0.5 * p.I_c[k] * w**2
         e = e + p.m[k] * G * st.y[k]
         kin = _pair_kinematics(p, st, k)[0]
-        lo, hi = p.lo[k], p.hi[k]
-        d_lo, d_hi = kin(lo)[4], kin(hi)[4]
-        if p.face:
-            ca, cb = closed_interval(lo, hi, d_lo, d_hi)
-            mid, half = 0.5 * (ca + cb), 0.5 * (cb - ca)
-            for xg in _GAUSS:
-                tau = (mid + half * xg - lo) / (hi - lo)
-                d = d_lo + tau * (d_hi - d_lo)
-                e = e + 0.5 * p.kn_line[k] * half * jnp.maximum(d, 0.0) ** 2
-            length = cb - ca
-            safe = jnp.where(length > 0.0, length, 1.0)
-            e = e + jnp.where(length > 0.0, 0.5 * st.fs[k][0] ** 2 / (p.ks_line[k] * safe), 0.0)
-        else:
-            n_sub = p.n_sub
-            step = (hi - lo) / (n_sub - 1)
-            for i in range(n_sub):
-                wgt = (0.5 if i in (0, n_sub - 1) else 1.0) * step
-                d = d_lo + i / (n_sub - 1) * (d_hi - d_lo)
-                e = e + 0.5 * p.kn_line[k] * wgt * jnp.maximum(d, 0.0) ** 2
-                e = e + 0.5 * st.fs[k][i] ** 2 / (p.ks_line[k] * wgt)
+        e = e + _face_energy(p, k, kin, p.lo[k], p.hi[k], st.fs[k])
+        if p.one_sided:
+            kin = _wall_kinematics(p, st, k)[0]
+            e = e + _face_energy(p, k, kin, -0.5 * p.h[k], 0.5 * p.h[k], st.fs_wall[k])
     k = p.n - 1
     qx = st.x[k] + 0.5 * p.h[k] * st.s[k]
     qy = st.y[k] + 0.5 * p.h[k] * st.c[k]
@@ -858,11 +938,13 @@ def initial_assembly_state(
     assembly: Assembly, p: AssemblyParams, theta0=0.0, joint: Joint = Joint()
 ) -> AssemblyState:
     """At rest under gravity and the overburden: the whole stack tilted rigidly by ``theta0``
-    [rad] about the pivot corner of block 0 (or flat for ``theta0 = 0``).
+    [rad] about the pivot corner of block 0 (or flat for ``theta0 = 0``); a restrained
+    two-block wall in its hinge mechanism instead (:func:`_hinge_pose`).
 
     The ground joint settles as under one block carrying the whole weight (the equilibrium
     sink of :func:`rockjax.dem.initial_state`, computed by it for a block of block 0's shape
-    and the total weight); each bed joint settles uniformly under the weight above it."""
+    and the total weight); each bed joint settles uniformly under the weight above it. The
+    return walls (one-sided ``p``) just touch the back faces at ``gap = 0``."""
     blk0 = assembly.blocks[0]
     weight = sum(b.m for b in assembly.blocks) * G + assembly.top_load
     proxy = Block(
@@ -874,6 +956,8 @@ def initial_assembly_state(
         nu=blk0.nu,
     )
     s0 = initial_state(dem_params(proxy, joint=joint, phi_deg=45.0), theta0)
+    if p.restrained and concrete(theta0) != 0.0:
+        return _hinge_pose(assembly, p, s0, joint)
     theta0 = jnp.asarray(theta0, float)
     c, s = s0.c, s0.s
     xs, ys = [s0.x + p.x0[0]], [s0.y]
@@ -899,6 +983,91 @@ def initial_assembly_state(
         theta=(theta0,) * n,
         theta_max=(jnp.abs(theta0),) * n,
         fs=tuple((zero,) * n_fs for _ in range(n)),
+        fs_wall=tuple((zero,) * n_fs for _ in range(n)) if p.one_sided else (),
+    )
+
+
+def _hinge_angle(theta, x_b, x_c, u1, v1):
+    """The rotation [rad] of the upper block of a restrained two-block wall in its hinge
+    mechanism: the block turns about the hinge ``B`` (world x ``x_b``; ``(u1, v1)`` [m] the
+    body vector from ``B`` to the top face centre ``C``) until ``C`` is at ``x_c``:
+    ``u1 cos t + v1 sin t = x_c - x_b``, the root ``asin((x_c - x_b) / r) - atan2(u1, v1)``,
+    ``r = hypot(u1, v1)``, the branch through ``t = 0`` at rest (NaN where ``C`` cannot
+    reach ``x_c``). ``theta`` (block 0's rotation) only sets the dtype."""
+    ratio = (x_c - x_b) / jnp.hypot(u1, v1)
+    ok = jnp.abs(ratio) <= 1.0
+    return jnp.where(
+        ok, jnp.arcsin(jnp.where(ok, ratio, 0.0)) - jnp.arctan2(u1, v1), jnp.nan * theta
+    )
+
+
+def _hinge_geometry(assembly: Assembly, side):
+    """The hinge mechanism's body geometry of a restrained two-block wall turning toward
+    ``side`` (+1: block 0 about its +x toe): block 0's pivot corner ``(u_a, -h_0/2)``, the
+    hinge ``B`` at the bed joint's other end, ``(u_b, h_0/2)`` in block 0's frame and
+    ``(e_1, -h_1/2)`` in block 1's, and the body vector ``(u1, v1)`` from ``B`` to the top
+    face centre."""
+    b0, b1 = assembly.blocks
+    lo, hi = assembly.overlap(1)
+    e_1 = jnp.where(side > 0, lo, hi)
+    u_b = assembly.x_offset[1] + e_1 - assembly.x_offset[0]
+    return side * 0.5 * b0.b, u_b, e_1, -e_1, b1.h
+
+
+def _hinge_pose(assembly: Assembly, p: AssemblyParams, s0, joint: Joint) -> AssemblyState:
+    """A restrained two-block wall released in its hinge mechanism (docs/assemblies.md,
+    "Initial state"): block 0 tilted by ``theta0`` about its pivot corner as a free stack's
+    (``s0``: its pose and ground sink under the whole weight), block 1 on the hinge ``B`` at
+    the bed joint's far end, turned so that the top face centre bears on the stop the upper
+    block leans on (``x0_1 + gap`` for ``theta0 > 0``): :func:`_hinge_angle`. The bed joint
+    settles on its corner as :func:`rockjax.dem.initial_state` sinks a block of block 1's
+    shape carrying block 1 and the overburden, tilted by the relative rotation."""
+    theta = s0.theta
+    side = jnp.sign(theta)
+    _, u_b, _, u1, v1 = _hinge_geometry(assembly, side)
+    c, s = s0.c, s0.s
+    x_0, y_0 = s0.x + p.x0[0], s0.y
+    x_b = x_0 + u_b * c + 0.5 * p.h[0] * s
+    x_c = p.x0[1] + side * p.gap
+    theta1 = _hinge_angle(theta, x_b, x_c, u1, v1)
+    upper = assembly.blocks[1]
+    load = upper.m * G + assembly.top_load
+    proxy = Block(
+        b=upper.b,
+        h=upper.h,
+        length=upper.length,
+        rho=load / (G * upper.b * upper.h * upper.length),
+        E=upper.E,
+        nu=upper.nu,
+    )
+    params1 = dem_params(proxy, joint=joint, phi_deg=45.0)
+
+    def pose(theta1):
+        # block 1's centroid in block 0's frame, its corner sunk into the bed joint
+        s1 = initial_state(params1, theta1 - theta)
+        du, dv = p.x0[1] - p.x0[0] + s1.x, 0.5 * p.h[0] + s1.y
+        c1, s_1 = jnp.cos(theta1), jnp.sin(theta1)
+        miss = x_c - (x_0 + du * c + dv * s + 0.5 * p.h[1] * s_1)
+        return du, dv, c1, s_1, miss
+
+    for _ in range(2):  # Newton on C's position: the joints' sinks moved it (~1e-5 m)
+        _, _, c1, s_1, miss = pose(theta1)
+        theta1 = theta1 + miss / (v1 * c1 - u1 * s_1)
+    du, dv, c1, s_1, _ = pose(theta1)
+    zero = jnp.zeros(())
+    n_fs = 1 if joint.face else joint.n_sub
+    return AssemblyState(
+        x=(x_0, x_0 + du * c + dv * s),
+        y=(y_0, y_0 - du * s + dv * c),
+        c=(c, c1),
+        s=(s, s_1),
+        vx=(zero, zero),
+        vy=(zero, zero),
+        w=(zero, zero),
+        theta=(theta, theta1),
+        theta_max=(jnp.abs(theta), jnp.abs(theta1)),
+        fs=tuple((zero,) * n_fs for _ in range(2)),
+        fs_wall=tuple((zero,) * n_fs for _ in range(2)) if p.one_sided else (),
     )
 
 
@@ -934,6 +1103,8 @@ def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int,
         & jnp.all(jnp.isfinite(ag_v))
         & jnp.all(jnp.stack([jnp.all(jnp.isfinite(a)) for a in top_xs]))
     )
+    if p.one_sided:
+        bad_input = bad_input | ~(jnp.isfinite(p.wall_gap) & (p.wall_gap >= 0))
 
     def outer(carry, xs):
         st, overturned, status = carry
@@ -1016,12 +1187,14 @@ def simulate_assembly(
     motion: GroundMotion | None = None,
     *,
     beta=0.0,
+    mode: str = "two_sided",
+    gap=0.0,
     theta0=0.0,
     duration: float | None = None,
     dt: float | None = None,
     accuracy: float | None = None,
     joint: Joint = Joint(),
-    phi_deg=50.0,
+    phi_deg=None,
     save_dt: float | None = None,
     save: tuple[str, ...] = (),
     beta_max=None,
@@ -1039,21 +1212,33 @@ def simulate_assembly(
     ``storey - 1``, relative displacement and velocity of :meth:`rockjax.ShearBuilding.response`,
     linear between samples), docs/assemblies.md "Supports in a building".
 
+    A facade (``mode="one_sided"``) leans on return walls: every block's back face (its -x
+    face) meets a fixed wall ``gap`` behind it with the joint's contact law, as the back face
+    of :func:`rockjax.simulate_dem`'s facade (docs/assemblies.md, "Return walls").
+
     Args:
         assembly: The :class:`rockjax.assembly.Assembly`.
         motion: Ground motion (the supports, ground and top restraint, move with it); ``None``
             for free motion (then ``duration`` is required).
         beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1), all joints.
-        theta0: Initial rigid tilt of the whole stack about block 0's pivot corner [rad],
-            released from rest (``top="free"`` only).
+        mode: ``"two_sided"`` (default), or ``"one_sided"``: a facade whose blocks' back
+            faces (-x) meet fixed return walls.
+        gap: Distance between each block's back face at rest and the return wall [m]
+            (one-sided only; the top restraint's clearance is ``Assembly.gap``).
+        theta0: Initial rotation of block 0 about its pivot corner [rad], released from
+            rest: the whole stack tilted rigidly (``top="free"``), or a restrained two-block
+            wall in its hinge mechanism (the upper block turned about the bed joint's far end
+            so that its top bears on the restraint); ``theta0 >= 0`` one-sided.
         duration: Length of the run [s]; default the record's (longer appends zeros).
         dt: Time step [s]; default :func:`stable_dt_assembly` (the accuracy rule of
             :func:`rockjax.stable_dt` on the stiffest mode of the whole assembly). The step
             used is the largest divisor of the output step not above ``dt``.
-        accuracy: ``omega_max dt (1 + zeta)`` of the default step [-] (ignored with ``dt``).
+        accuracy: ``omega_max dt (1 + zeta)`` of the default step [-] (ignored with ``dt``);
+            default that of :func:`rockjax.simulate_dem` for the ``mode``.
         joint: The joint of every interface, :class:`rockjax.Joint` (default the integrated
             face law; ``Joint(n_sub=2)`` the paper's corner sub-contacts).
-        phi_deg: Friction angle of every interface [deg] (default 50).
+        phi_deg: Friction angle of every interface [deg]; default 50 (two-sided) or 30
+            (one-sided), as in :func:`rockjax.simulate_dem`.
         save_dt: Output interval for free motion [s] (default 0.002); with a record, its ``dt``.
         save: Extra outputs: ``("energy",)`` (total mechanical energy [J]).
         beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
@@ -1082,12 +1267,22 @@ def simulate_assembly(
         )
     for key in save:
         check_choice("save entry", key, SAVE_OPTIONS)
-    p = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg)
-    _check_theta0(theta0, assembly)
+    check_choice("mode", mode, MODES)
+    g = concrete(gap)
+    if mode == "two_sided" and g is not None and np.ndim(g) == 0 and float(g) != 0.0:
+        raise ValueError(
+            f"gap={float(g):.4g} m is the distance to the return walls of a facade and needs "
+            "mode='one_sided'; the top restraint's clearance is the Assembly's own: "
+            "rj.Assembly.stack(blocks, top='restrained', gap=...)."
+        )
+    if phi_deg is None:
+        phi_deg = 50.0 if mode == "two_sided" else 30.0
+    p = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg, mode=mode, gap=gap)
+    _check_theta0(theta0, assembly, mode)
     ag, ag_v, dt_out = prepare_motion(motion, duration, save_dt)
     ag, top = _in_building(support_motion, storey, assembly, motion, ag, dt_out)
-    accuracy = _check_accuracy(accuracy, joint)
-    limit, dt_default = _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, phi_deg)
+    accuracy = _check_accuracy(accuracy, joint, mode)
+    limit, dt_default = _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, mode)
     if dt is None:
         dt_target = dt_default
     else:
@@ -1208,16 +1403,19 @@ def _restraint_arrays(pair, storey, assembly: Assembly, ag):
     return tuple(out)
 
 
-def _check_theta0(theta0, assembly: Assembly):
+def _check_theta0(theta0, assembly: Assembly, mode: str = "two_sided"):
     check_scalar("theta0", theta0, "rad", "e.g. theta0=0.01.")
     th = concrete(theta0)
     if th is None:
         return
-    if th != 0.0 and assembly.top == "restrained":
+    if mode == "one_sided" and th < 0:
         raise ValueError(
-            f"theta0={float(th):.4g} rad: a rigid tilt of the whole stack is only possible with "
-            "top='free' (the top restraint holds the top); use theta0=0."
+            f"theta0={float(th):.4g} rad: a facade (mode='one_sided') leans on its return walls "
+            "at -x and can only rotate outward, theta0 >= 0."
         )
+    if th != 0.0 and assembly.top == "restrained":
+        _check_hinge_theta0(float(th), assembly)
+        return
     blocks = assembly.blocks
     vals = [concrete(b.b) for b in blocks] + [concrete(b.h) for b in blocks]
     if any(v is None for v in vals):
@@ -1234,11 +1432,49 @@ def _check_theta0(theta0, assembly: Assembly):
         )
 
 
-def _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, phi_deg):
+def _check_hinge_theta0(th: float, assembly: Assembly):
+    """``theta0`` of a restrained wall: its hinge mechanism needs two blocks, the upper one's
+    bottom face wholly on the lower one, and rotations below each block's ``eta``."""
+    blocks = assembly.blocks
+    if len(blocks) != 2:
+        raise ValueError(
+            f"theta0={th:.4g} rad releases a restrained wall from its hinge mechanism, which is "
+            f"defined for two blocks; got {len(blocks)} block(s). Use theta0=0, or top='free' "
+            "(a rigid tilt of the whole stack)."
+        )
+    vals = [concrete(v) for v in (blocks[0].b, blocks[0].h, blocks[1].b, blocks[1].h)]
+    vals += [concrete(v) for v in (*assembly.x_offset, assembly.gap)]
+    if any(v is None for v in vals):
+        return
+    lo, hi = (float(v) for v in assembly.overlap(1))
+    half = 0.5 * float(blocks[1].b)
+    if not (np.isclose(lo, -half) and np.isclose(hi, half)):
+        raise ValueError(
+            f"theta0={th:.4g} rad: the hinge mechanism of a restrained wall needs the upper "
+            f"block's bottom face wholly on the lower block (overlap ({lo:.4g}, {hi:.4g}) m of "
+            f"({-half:.4g}, {half:.4g}) m); place it within the lower block with x_offset, or "
+            "use theta0=0."
+        )
+    side = float(np.sign(th))
+    u_a, u_b, _, u1, v1 = (float(v) for v in _hinge_geometry(assembly, side))
+    h0 = float(blocks[0].h)
+    x_b = float(assembly.x_offset[0]) + u_a + (u_b - u_a) * math.cos(th) + h0 * math.sin(th)
+    x_c = float(assembly.x_offset[1]) + side * float(assembly.gap)
+    th1 = float(_hinge_angle(th, x_b, x_c, u1, v1))
+    eta0, eta1 = (math.atan2(float(b.b), float(b.h)) for b in blocks)
+    if not (np.isfinite(th1) and abs(th) < eta0 and abs(th1) < eta1):
+        raise ValueError(
+            f"theta0={th:.4g} rad is beyond the hinge mechanism of this restrained wall "
+            f"(lower block eta = {eta0:.4g} rad; the upper block would turn by {th1:.4g} rad, "
+            f"eta = {eta1:.4g} rad). Try a tenth of eta."
+        )
+
+
+def _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, mode):
     if beta_max is not None:
         try:
             with jax.ensure_compile_time_eval():
-                p_max = assembly_params(assembly, beta_max, joint=joint, phi_deg=45.0)
+                p_max = assembly_params(assembly, beta_max, joint=joint, phi_deg=45.0, mode=mode)
                 return tuple(map(float, _steps_jit(p_max, accuracy)))
         except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
             raise ValueError(

@@ -74,8 +74,10 @@ def test_one_block_equals_simulate_dem(joint):
 def test_default_step_is_simulate_dems():
     """Reference: rj.stable_dt (the same accuracy rule on the same stiffness matrix)."""
     for joint in (rj.Joint(), rj.Joint(n_sub=2)):
-        a = stable_dt_assembly(Assembly.stack([ONE]), 2e-3, joint=joint)
-        assert a == pytest.approx(rj.stable_dt(ONE, 2e-3, joint=joint), rel=1e-12)
+        for mode in ("two_sided", "one_sided"):
+            a = stable_dt_assembly(Assembly.stack([ONE]), 2e-3, joint=joint, mode=mode)
+            ref = rj.stable_dt(ONE, 2e-3, joint=joint, mode=mode)
+            assert a == pytest.approx(ref, rel=1e-12), mode
 
 
 # ----------------------------------------------------------------------------- two blocks
@@ -208,6 +210,80 @@ def test_first_phase_matches_rigid_two_block_model():
     assert errs[1] < 0.7 * errs[0], errs
     # the relative rotation really grows: the rigid model's mode, not the stuck stack
     assert sol.sol(t_end)[1] - sol.sol(t_end)[0] > 0.5 * theta0
+
+
+RIGID_HINGE_TOL = 5e-3  # [theta0] DEM (E = 1.8e10 Pa, corner joints) vs the rigid mechanism:
+# the joints' compliance (measured 5.3e-4; 2.5e-3 at E = 1.8e9 Pa, 1.5e-4 at 1.8e11 Pa)
+
+
+def _rigid_hinge(b, h, m, p_top, theta0):
+    """The rigid three-hinge mechanism of a restrained wall of two equal aligned blocks
+    (b x h, mass m, overburden force p_top): block 0 rocks about its +x ground toe A, block 1
+    about the hinge B at the -x end of the bed joint, its top face centre C held at x = 0. One
+    degree of freedom: Lagrange's equation M(t) t'' + M'(t) t'^2 / 2 + V'(t) = 0, with M and
+    V from the geometry (derivatives by central differences), integrated by scipy up to the
+    return to t = 0. Returns the solution and block 1's rotation as a function of block 0's."""
+    inertia = m * (b * b + h * h) / 12.0
+
+    def rot(t, u, v):
+        return np.array([u * math.cos(t) + v * math.sin(t), -u * math.sin(t) + v * math.cos(t)])
+
+    toe = np.array([0.5 * b, 0.0])
+
+    def geometry(t):
+        x0 = toe + rot(t, -0.5 * b, 0.5 * h)
+        xb = toe + rot(t, -b, h)
+        # C = B + R(t1) (b/2, h) at x = 0: (b/2) cos t1 + h sin t1 = -x_B
+        t1 = math.asin(-xb[0] / math.hypot(0.5 * b, h)) - math.atan2(0.5 * b, h)
+        return x0, xb + rot(t1, 0.5 * b, 0.5 * h), xb + rot(t1, 0.5 * b, h), t1
+
+    def mass(t, d=1e-6):
+        hi, lo = geometry(t + d), geometry(t - d)
+        j0, j1, jt1 = ((hi[i] - lo[i]) / (2 * d) for i in (0, 1, 3))
+        return m * (j0 @ j0 + j1 @ j1) + inertia * (1.0 + jt1 * jt1)
+
+    def potential(t):
+        x0, x1, xc, _ = geometry(t)
+        return m * G * (x0[1] + x1[1]) + p_top * xc[1]
+
+    def rhs(_, y):
+        t, w = y
+        d = 1e-5
+        dm = (mass(t + d) - mass(t - d)) / (2 * d)
+        dv = (potential(t + d) - potential(t - d)) / (2 * d)
+        return [w, (-dv - 0.5 * dm * w * w) / mass(t)]
+
+    def back(_, y):
+        return y[0]
+
+    back.terminal, back.direction = True, -1
+    sol = solve_ivp(
+        rhs, (0, 5), [theta0, 0.0], events=back, rtol=1e-10, atol=1e-12, dense_output=True
+    )
+    return sol, lambda t: geometry(t)[3]
+
+
+def test_restrained_wall_released_from_its_hinge_matches_rigid_mechanism():
+    """Reference: the rigid three-hinge mechanism (Lagrange, integrated in the test with
+    scipy). A restrained wall of two 0.2 x 1.0 m blocks (2 kN/m overburden, stiff corner
+    joints) released from theta0 = 0.3 eta in its hinge mechanism falls back with both blocks
+    on the mechanism's path to RIGID_HINGE_TOL theta0, up to 90 % of the time to the impact."""
+    b, h, p_top = 0.2, 1.0, 2e3
+    blk = rj.Block(b=b, h=h, E=1.8e10)
+    theta0 = 0.3 * math.atan(b / h)
+    sol, upper = _rigid_hinge(b, h, float(blk.m), p_top * float(blk.length), theta0)
+    t_end = 0.9 * float(sol.t_events[0][0])
+    wall = Assembly.stack([blk, blk], top="restrained", overburden=p_top)
+    r = simulate_assembly(
+        wall, theta0=theta0, duration=t_end, save_dt=0.002, joint=CORNERS, phi_deg=80.0
+    )
+    t, th = np.asarray(r.t), np.asarray(r.theta)
+    ref0 = sol.sol(t)[0]
+    ref1 = np.array([upper(v) for v in ref0])
+    assert ref0[-1] < 0.25 * theta0  # it fell most of the way back
+    assert np.max(np.abs(th[:, 0] - ref0)) < RIGID_HINGE_TOL * theta0
+    assert np.max(np.abs(th[:, 1] - ref1)) < RIGID_HINGE_TOL * theta0
+    assert not bool(r.overturned) and int(r.status) == 0
 
 
 # ----------------------------------------------------------------------------- transforms
@@ -374,8 +450,13 @@ def test_bad_input_is_refused_with_a_fix():
     with pytest.raises(ValueError, match="length"):
         Assembly.stack([blk, rj.Block(b=0.2, h=1.0, length=2.0)])
     wall = Assembly.stack([blk, blk], top="restrained")
-    with pytest.raises(ValueError, match="top='free'"):
-        simulate_assembly(wall, theta0=0.01, duration=0.1)
+    with pytest.raises(ValueError, match="top='free'"):  # the hinge mechanism: two blocks
+        simulate_assembly(Assembly.stack([blk] * 3, top="restrained"), theta0=0.01, duration=0.1)
+    with pytest.raises(ValueError, match="hinge mechanism"):
+        simulate_assembly(wall, theta0=0.25, duration=0.1)
+    with pytest.raises(ValueError, match="wholly on the lower block"):
+        wide = Assembly.stack([blk, rj.Block(b=0.3, h=1.0)], top="restrained")
+        simulate_assembly(wide, theta0=0.01, duration=0.1)
     with pytest.raises(ValueError, match="overturning angle"):
         simulate_assembly(Assembly.stack([blk, blk]), theta0=0.2, duration=0.1)
     with pytest.raises(ValueError, match="stability limit"):
@@ -484,3 +565,165 @@ def test_vmap_in_a_building_equals_loop():
     loop = jnp.stack([run(a) for a in ags])
     assert float(jnp.max(jnp.abs(batch - loop))) <= VMAP_RTOL * float(jnp.max(jnp.abs(loop)))
     assert float(jnp.max(jnp.abs(loop))) > 1e-4
+
+
+# ----------------------------------------------------------------------------- return walls
+
+WALL_PENETRATION = 1e-3  # [m] the wall's Winkler joint stops a 1.5 m facade within ~0.3 mm
+# (the single-block bound of tests/test_dem.py; measured 0.1-0.3 mm per block)
+GLUED_WALL_TOL = 2e-3  # [eta] glued facade pair vs the tall facade: the bed joint's compliance
+# (as stiff as the ground joint; its relative rotation measured 2.3e-3 eta, the histories 8.6e-4)
+GLUED_WALL_OPEN_TOL = 5e-3  # [eta] relative rotation of the glued pair (measured 2.3e-3)
+FACADE_GAP = 0.002  # [m] behind the back faces: the wall is met at theta = -gap/h, not at rest
+
+
+@pytest.mark.parametrize(
+    "joint",
+    [rj.Joint(), pytest.param(rj.Joint(n_sub=3, dashpot="clipped"), marks=pytest.mark.slow)],
+    ids=["face", "n3-clipped"],
+)
+def test_one_block_facade_equals_simulate_dem(joint):
+    """Reference: rj.simulate_dem of the facade (mode="one_sided", the same gap, joint and
+    step): the one-block assembly's back face on its return wall is the same model, equal to
+    round-off; reached through rj.simulate_dem's routing of an Assembly. The pulse rocks the
+    facade out and back onto its wall, past ``theta = -gap/h``."""
+    beta = 0.5 * float(rj.beta_dejong(ONE))
+    dt = rj.stable_dt(ONE, beta, joint=joint, mode="one_sided")
+    kw = dict(
+        beta=beta, theta0=0.3 * float(ONE.eta), dt=dt, joint=joint, mode="one_sided", gap=FACADE_GAP
+    )
+    ref = rj.simulate_dem(ONE, PULSE, **kw)
+    r = rj.simulate_dem(Assembly.stack([ONE]), PULSE, **kw)
+    assert isinstance(r, rj.AssemblyResponse) and r.theta.dtype == jnp.float64
+    scale = float(jnp.max(jnp.abs(ref.theta)))
+    assert float(jnp.min(ref.theta)) < -0.5 * FACADE_GAP / float(ONE.h)  # it met the wall
+    assert float(jnp.max(jnp.abs(r.theta[:, 0] - ref.theta))) < EQUAL_RTOL * scale
+    for key in ("x", "y"):
+        err = float(jnp.max(jnp.abs(getattr(r, key)[:, 0] - ref.extras[key])))
+        assert err < EQUAL_RTOL * float(ONE.h), key
+    assert bool(r.overturned) == bool(ref.overturned)
+    assert abs(float(r.theta_max[0]) - float(ref.theta_max)) < EQUAL_RTOL * scale
+
+
+def test_facade_blocks_stop_at_their_return_walls():
+    """Reference: geometry. A free two-block facade (shifted by x_offset = 0.05 m, so the wall
+    line is ``x = x_offset - b/2 - gap``) released outward falls back onto its return wall:
+    the top-back corner of each block reaches the wall plane and is stopped within
+    WALL_PENETRATION by the wall's joint; the mirror wall (no wall at +x) never acts, so the
+    facade only leans back to about ``-gap/h`` (plus the penetration)."""
+    blk = rj.Block(b=0.2, h=0.75)
+    shift = 0.05
+    wall = Assembly.stack([blk, blk], x_offset=(shift, shift))
+    r = simulate_assembly(
+        wall,
+        mode="one_sided",
+        gap=FACADE_GAP,
+        theta0=0.3 * math.atan(0.2 / 1.5),
+        duration=0.8,
+        save_dt=0.0005,
+        phi_deg=80.0,
+    )
+    th = np.asarray(r.theta)
+    corner = shift + np.asarray(r.x) - 0.1 * np.cos(th) + 0.375 * np.sin(th)  # x: from x0
+    penetration = (shift - 0.1 - FACADE_GAP) - corner.min(axis=0)
+    assert np.all(penetration > 0.0) and np.all(penetration < WALL_PENETRATION), penetration
+    lean = (FACADE_GAP + WALL_PENETRATION) / 1.5
+    assert np.all(th.min(axis=0) > -2.0 * lean), th.min(axis=0)
+    assert not bool(r.overturned) and int(r.status) == 0
+
+
+@pytest.mark.slow  # (keeps the file under 60 s on a loaded machine)
+def test_glued_facade_pair_leans_like_one_tall_facade():
+    """Reference: rj.simulate_dem of the tall facade (0.2 x 1.5 m, mode="one_sided"). The pair
+    2 x (0.2 x 0.75 m, E halved) has the tall block's joint stiffness E/h on every face: the
+    ground joint, the bed joint and both back faces on the wall; friction 80 deg and damping
+    (0.25 beta_DeJong) keep its bed joint shut through the impact on the wall (at beta = 0 the
+    pair rattles: the wall's impulse is spread over the height, and a no-tension bed joint
+    opens under it). Released from 0.5 eta, it falls back onto the wall and settles as the tall
+    block, to GLUED_WALL_TOL eta over the whole history."""
+    tall = ONE
+    pair = Assembly.stack([rj.Block(b=0.2, h=0.75, E=0.9e9)] * 2)
+    eta = float(tall.eta)
+    beta = 0.25 * float(rj.beta_dejong(tall))
+    kw = dict(beta=beta, theta0=0.5 * eta, duration=1.5, phi_deg=80.0, mode="one_sided")
+    ref = np.asarray(rj.simulate_dem(tall, **kw).theta)
+    th = np.asarray(rj.simulate_dem(pair, **kw).theta)
+    assert ref.min() < 0.0 and th.min() < 0.0  # both met the wall
+    assert np.max(np.abs(th[:, 1] - th[:, 0])) < GLUED_WALL_OPEN_TOL * eta
+    assert np.max(np.abs(th[:, 0] - ref)) < GLUED_WALL_TOL * eta
+
+
+def test_facade_energy_at_beta_zero_never_grows():
+    """Reference: the energy balance at beta = 0 (kinetic + gravity + overburden + springs,
+    the return walls' included). The penalty springs are elastic, so in flight (before the
+    first impact) the energy is conserved to ENERGY_RTOL, and the contact law's only
+    non-conservative parts (Mohr-Coulomb slip, the release of a shear spring as its contact
+    opens) can only take energy out: the energy never rises above its start by more than
+    ENERGY_RTOL over 4 s of rocking against the walls (measured 1.6e-4 in flight, 1.5e-4
+    overall, while the impacts take out 97 %). (One-sided impacts are lossy in this
+    model even at beta = 0: the wall's horizontal impulse loads the shear springs of the base
+    and the wall, released as the facade rebounds; the single 0.25 x 1.5 m facade of
+    rj.simulate_dem loses half its rocking energy at its first impact with corner contacts,
+    0.4 % with friction 0.01 deg.)"""
+    joint = rj.Joint(n_sub=2)
+    wall = Assembly.stack([rj.Block(b=0.25, h=1.5)] * 2, overburden=2e4)
+    # sampled every 0.5 ms: an impact on the wall lasts a few ms
+    kw = dict(phi_deg=80.0, save=("energy",), joint=joint, mode="one_sided", gap=1e-3, save_dt=5e-4)
+    rest = simulate_assembly(wall, duration=4.0, **kw)  # (the same program as the run's)
+    w = float(wall.mass * G)
+    y_g = (w * 1.5 + 2e4 * 3.0) / (w + 2e4)
+    eta = math.atan(0.125 / y_g)
+    r = simulate_assembly(wall, theta0=0.5 * eta, duration=4.0, **kw)
+    e, th = np.asarray(r.energy), np.asarray(r.theta)
+    rel = (e - e[0]) / (e[0] - float(rest.energy[-1]))
+    first = int(np.argmax(th[:, 0] < 0.0))  # the first sample on the wall side
+    assert first > 0 and np.max(np.abs(rel[: first - 1])) < ENERGY_RTOL
+    assert np.max(rel) < ENERGY_RTOL, np.max(rel)
+    assert rel[-1] < -ENERGY_RTOL  # the impacts on the walls did take energy out
+    assert np.sum(np.diff(np.sign(th[:, 0])) < 0) >= 3  # it met the walls again and again
+    assert not bool(r.overturned) and int(r.status) == 0
+
+
+def test_facade_jit_and_vmap_over_records_and_gaps():
+    """Reference: a Python loop (the same arithmetic): a restrained two-block facade on its
+    return walls under ``jit(vmap)`` over (record, gap) pairs, the gap traced."""
+    wall = Assembly.stack([rj.Block(b=0.2, h=1.0)] * 2, top="restrained", overburden=5e3)
+    dt = stable_dt_assembly(wall, 1e-3, joint=CORNERS, mode="one_sided")
+    ags = jnp.stack(
+        [
+            rj.GroundMotion.sine_cycle(pga=a, period=0.3, dt=0.01, duration=0.5).ag
+            for a in (-6.0, 8.0)
+        ]
+    )
+    gaps = jnp.array([0.0, 2e-3])
+
+    def run(ag, gap):
+        motion = rj.GroundMotion(ag=ag, dt=0.01)
+        r = rj.simulate_dem(
+            wall, motion, beta=1e-3, dt=dt, joint=CORNERS, mode="one_sided", gap=gap
+        )
+        return r.theta
+
+    batch = jax.jit(jax.vmap(run))(ags, gaps)
+    loop = jnp.stack([run(a, g) for a, g in zip(ags, gaps)])
+    assert batch.shape == (2, 51, 2) and batch.dtype == jnp.float64
+    scale = float(jnp.max(jnp.abs(loop)))
+    assert scale > 1e-4  # it moved
+    assert float(jnp.max(jnp.abs(batch - loop))) <= VMAP_RTOL * scale
+    assert float(jnp.min(loop)) < 0.0  # onto the walls
+
+
+def test_facade_bad_input_is_refused_with_a_fix():
+    blk = rj.Block(b=0.2, h=1.0)
+    wall = Assembly.stack([blk, blk])
+    with pytest.raises(ValueError, match="rotate outward"):
+        simulate_assembly(wall, mode="one_sided", theta0=-0.01, duration=0.1)
+    with pytest.raises(ValueError, match="mode='one_sided'"):
+        simulate_assembly(wall, gap=1e-3, duration=0.1)
+    with pytest.raises(ValueError, match="gap"):
+        simulate_assembly(wall, mode="one_sided", gap=-1e-3, duration=0.1)
+    with pytest.raises(ValueError, match="mode must be one of"):
+        simulate_assembly(wall, mode="facade", duration=0.1)
+    with pytest.raises(ValueError, match="wall_motion"):
+        z = np.zeros(11)
+        rj.simulate_dem(wall, duration=0.1, mode="one_sided", wall_motion=(z, z), save_dt=0.01)
