@@ -1,7 +1,8 @@
 """Benchmark compilation: a loop over records of different lengths, ``jit(grad)``, the disk cache.
 
 Run: ``python benchmarks/bench_compile.py [--dem] [--no-cache] [--no-calibrate]`` (about a
-minute on 2 cores; ``--dem`` adds the DEM loops, about half a minute more).
+minute on 2 cores; ``--dem`` adds the DEM loops, about half a minute more), or
+``python benchmarks/bench_compile.py --fit [--repeat N]`` for item 4 alone (about a minute).
 
 1. A loop over ten FEMA P695 far-field components of ten different lengths (1 999 to 9 992
    samples, steps 0.005-0.02 s), each ``rj.simulate_housner(block, record)`` in turn as a
@@ -18,12 +19,22 @@ minute on 2 cores; ``--dem`` adds the DEM loops, about half a minute more).
    and ``rockjax calibrate`` run twice the same way: the time from the process start to its
    first line (its header, printed once the imports and the argument checks are done and the
    fit starts computing) and to its end.
+4. ``--fit``: the first ``rj.fit_beta`` of a new process, as ``rockjax calibrate --b 0.25 --h 1.5``
+   calls it (two-sided, ``e = e_H``, release ``0.5 eta``, L-BFGS), in two fresh processes that
+   share a new cache folder (the first fills it, the second loads from it): the import, the
+   first fit and a second identical fit in the same process (the compute floor, nothing left
+   to trace or compile), each with its wall time, the programs compiled or loaded from the
+   cache (``jax.monitoring`` events), the time spent tracing to jaxprs, lowering, and in
+   XLA compilation or cache loads, and the fitted ``beta``; then ``rockjax calibrate --b 0.25
+   --h 1.5`` in a third process (cache filled): to its header line and to its end.
+   ``--repeat N`` repeats the three processes ``N`` times, each time with a new cache folder.
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
+import json
 import logging
 import os
 import subprocess
@@ -162,6 +173,109 @@ _EAGER = textwrap.dedent(
 )
 
 
+_FIT = textwrap.dedent(
+    """
+    import collections, json, sys, time
+    t0 = time.perf_counter()
+    import rockjax as rj
+    rj.enable_compilation_cache()
+    t_import = time.perf_counter() - t0
+    from jax import monitoring
+
+    TRACE = "/jax/core/compile/jaxpr_trace_duration"
+    LOWER = "/jax/core/compile/jaxpr_to_mlir_module_duration"
+    COMPILE = "/jax/core/compile/backend_compile_duration"  # XLA compile or cache load
+    counts, secs = collections.Counter(), collections.Counter()
+
+    def on_duration(event, duration, **kwargs):
+        counts[event] += 1
+        secs[event] += duration
+
+    def on_event(event, **kwargs):
+        counts[event] += 1
+
+    monitoring.register_event_duration_secs_listener(on_duration)
+    monitoring.register_event_listener(on_event)
+
+    def phase(fn):
+        c0, s0, t = counts.copy(), secs.copy(), time.perf_counter()
+        out = fn()
+        wall = time.perf_counter() - t
+        c, s = counts - c0, secs - s0
+        return out, {
+            "wall": wall,
+            "traces": c[TRACE],
+            "trace_s": s[TRACE],
+            "lower_s": s[LOWER],
+            "programs": c[COMPILE],
+            "compile_s": s[COMPILE],
+            "hits": c["/jax/compilation_cache/cache_hits"],
+            "misses": c["/jax/compilation_cache/cache_misses"],
+        }
+
+    def setup():  # what `rockjax calibrate --b 0.25 --h 1.5` computes before its fit
+        block = rj.Block(b=0.25, h=1.5)
+        return block, float(rj.e_housner(block)), 0.5 * float(block.eta)
+
+    (block, e, theta0), set_up = phase(setup)
+
+    def fit():
+        return rj.fit_beta(block, e, target="e", mode="two_sided", theta0=theta0, progress=False)
+
+    fit1, first = phase(fit)
+    fit2, second = phase(fit)
+    assert fit1.beta == fit2.beta, (fit1.beta, fit2.beta)
+    json.dump(
+        {"import": t_import, "setup": set_up, "first": first, "second": second,
+         "beta": fit1.beta, "n_iterations": fit1.n_iterations,
+         "n_simulations": fit1.n_simulations},
+        sys.stdout,
+    )
+    """
+)
+
+
+def _phase_line(name: str, p: dict) -> str:
+    return (
+        f"{name} {p['wall']:.2f} s: {p['traces']} traces {p['trace_s']:.2f} s, lowering "
+        f"{p['lower_s']:.2f} s, {p['programs']} programs compiled or loaded {p['compile_s']:.2f} s "
+        f"({p['hits']} cache hits, {p['misses']} misses)"
+    )
+
+
+def first_fit(repeat: int) -> None:
+    """The first ``rj.fit_beta`` of a new process, cache empty and filled, then
+    ``rockjax calibrate`` with the cache filled (item 4)."""
+    print(
+        "\nfirst rj.fit_beta of a new process (0.25 x 1.5 m, e = e_H, release 0.5 eta, L-BFGS; "
+        "as `rockjax calibrate --b 0.25 --h 1.5`), two processes sharing a new cache folder, "
+        "then that command with the cache filled:"
+    )
+    for i in range(repeat):
+        with tempfile.TemporaryDirectory() as tmp:
+            env = os.environ | {rj.compilation.CACHE_ENV: os.path.join(tmp, "cache")}
+            for run in ("cache empty ", "cache filled"):
+                out = subprocess.run(
+                    [sys.executable, "-c", _FIT], env=env, capture_output=True, text=True
+                )
+                if out.returncode:
+                    raise RuntimeError(out.stderr[-2000:])
+                r = json.loads(out.stdout)
+                print(
+                    f"  [{i + 1}] {run}: import {r['import']:.2f} s, set-up "
+                    f"{r['setup']['wall']:.2f} s; beta = {r['beta']!r} s "
+                    f"({r['n_iterations']} iterations, {r['n_simulations']} runs); load {load()}"
+                )
+                print(f"      {_phase_line('first fit ', r['first'])}")
+                print(f"      {_phase_line('second fit', r['second'])}")
+            cmd = [sys.executable, "-m", "rockjax.cli", "calibrate", "--b", "0.25", "--h", "1.5"]
+            t_first, t_all, _ = _first_line(cmd + ["--out", os.path.join(tmp, "cal")], env)
+            print(
+                f"  [{i + 1}] rockjax calibrate --b 0.25 --h 1.5, cache filled: header after "
+                f"{t_first:.2f} s, done in {t_all:.2f} s; load {load()}"
+            )
+
+
 def _first_line(cmd, env) -> tuple[float, float, str]:
     """Seconds to the first line ``cmd`` prints and to its end, and that line."""
     t = time.perf_counter()
@@ -201,8 +315,18 @@ def main() -> None:
     ap.add_argument("--dem", action="store_true", help="also loop the DEM over the records")
     ap.add_argument("--no-cache", action="store_true", help="skip the persistent-cache runs")
     ap.add_argument("--no-calibrate", action="store_true", help="skip the `rockjax calibrate` runs")
+    ap.add_argument(
+        "--fit", action="store_true", help="only the first rj.fit_beta of a new process (item 4)"
+    )
+    ap.add_argument(
+        "--repeat", type=int, default=1, help="--fit: rounds of its three processes (default 1)"
+    )
     args = ap.parse_args()
     print(f"rockjax compile benchmark, jax {jax.__version__}; {machine()}; load {load()}")
+    if args.fit:
+        first_fit(args.repeat)
+        print(f"\nload at the end {load()}")
+        return
     loop_over_records(rj.simulate_housner, "simulate_housner")
     if args.dem:
         dem_loops()

@@ -7,8 +7,10 @@ shared; the benchmark (benchmarks/bench_calibrate.py) covers 6 geometries x 3 ta
 Tolerances: docs/verification.md, Calibration.
 """
 
+import logging
 import math
 
+import jax
 import numpy as np
 import pytest
 from scipy.signal import find_peaks
@@ -84,6 +86,21 @@ def test_seeded_default_fit_and_range(grid_fit):
     assert hi > 0.999 and lo < E_TARGET - 0.05
     # the paper's weighted-mean history error is reported
     assert np.isfinite(fit.history_error) and fit.history_error > 0.0
+
+
+def test_second_identical_fit_neither_traces_nor_compiles(caplog):
+    """A second identical fit in one process reuses every compiled program: nothing is traced
+    or compiled again, not even a small eager operation (``jax.log_compiles`` logs each)."""
+    first = rj.fit_beta(BLOCK, e=E_TARGET)
+    with jax.log_compiles(True), caplog.at_level(logging.DEBUG, logger="jax"):
+        again = rj.fit_beta(BLOCK, e=E_TARGET)
+    work = [
+        r.getMessage()
+        for r in caplog.records
+        if r.getMessage().startswith(("Finished tracing", "Finished XLA compilation"))
+    ]
+    assert work == []
+    assert again.beta == first.beta
 
 
 def test_history_error_small_for_corner_contacts_only(grid_fit):

@@ -21,7 +21,7 @@ from ..contact import Joint
 from ..dem import simulate_dem
 from ..housner import simulate_housner
 from ..relations import e_isr
-from ..response import STATUS_OK, Response
+from ..response import STATUS_MESSAGES, STATUS_OK, Response
 from . import solvers
 from .derivatives import beta_of_u, forward_mode, loss_u
 from .problems import (
@@ -40,7 +40,9 @@ from .problems import (
     history_params,
     history_problem,
     housner_loss,
+    last_compared_peak_time,
     last_compared_time,
+    stats,
     stats_batch,
 )
 from .result import (
@@ -164,17 +166,18 @@ def fit_beta(
         scan = np.linspace(0.0, bmax, max(2, n_seed))
     else:
         scan = np.array([0.0, bmax])
-    loss_s, gap_s, own_s, _ = map(np.asarray, stats_batch(problem, jnp.asarray(scan)))
+    loss_s, gap_s, own_s, _ = map(np.asarray, stats_batch(problem, scan))
     n_sims = scan.size
     e_range = check_range(problem, scan, own_s, bmax)
     check_reachable(problem, float(gap_s[0]), float(gap_s[-1]), bmax, e_range)
     slope = max((gap_s[0] - gap_s[-1]) / bmax, 1e-12)
-    problem = eqx.tree_at(lambda p: p.scale, problem, jnp.asarray(slope))
+    problem = eqx.tree_at(lambda p: p.scale, problem, jnp.asarray(slope, float))
     hist_b, hist_l = list(scan), list(loss_s)
 
     converged = True
     n_iter = 0
     root_finish = False
+    final = None  # the DEM run and statistics at the result, when already computed
     bar = _progress.bar(
         progress if method != "grid" else False, total=max_iter, desc="rockjax.fit_beta", unit="it"
     )
@@ -204,22 +207,22 @@ def fit_beta(
         # the inverse of beta(u) = beta_cap tanh(|u| / (S beta_cap))
         cap = float(problem.beta_cap)
         u0 = slope * cap * math.atanh(min(max(float(beta0), 1e-4 * bmax) / cap, 0.999))
-        u, hist, n_add, n_iter, converged = solvers.minimize(
-            loss_u, problem, u0, lambda v: (float(beta_of_u(problem, v)),), rtol, max_iter, on_step
+        _, (beta,), hist, n_add, n_iter, converged = solvers.minimize(
+            loss_u, problem, u0, _beta_params, rtol, max_iter, on_step
         )
         n_sims += n_add
         hist_b += [p[0] for p, _ in hist]
         hist_l += [v for _, v in hist]
-        beta = float(beta_of_u(problem, u))
         if problem.kind == "e":
             # the gap is monotone and bracketed: finish by false position where L-BFGS stopped
-            # short (usually no run: the fit is already there)
-            _, g_now, _, _ = (
-                float(np.asarray(x)[0]) for x in stats_batch(problem, jnp.asarray([beta]))
-            )
+            # short (usually no run: the fit is already there); the run that checks it is the
+            # result's own
+            final = _final_runs(problem, beta, h_resps)
+            g_now = final[1][1]
             n_sims += 1
             root_finish = abs(g_now) > GAP_TOL
             if root_finish:
+                final = None
                 bar.total += max_iter
                 beta, n_add, hb, hl, converged, n_more = solvers.false_position_finish(
                     problem, scan, gap_s, beta, g_now, rtol, max_iter, on_step
@@ -244,7 +247,40 @@ def fit_beta(
         t_start,
         e_range,
         root_finish,
+        final,
     )
+
+
+def _beta_params(u, problem: CalibrationProblem):
+    return (beta_of_u(problem, u),)
+
+
+def _final_runs(problem: CalibrationProblem, beta: float, h_resps: list[Response]):
+    """``(DEM response, stats as floats, history error or None)`` at ``beta`` [s]: one compiled
+    program (the DEM run of the first release saved every ``SAVE_DT``, :func:`stats`, and the
+    history error against Housner's first reference up to its last compared bounce)."""
+    h_theta = t_last = None
+    if h_resps:
+        h_theta = h_resps[0].theta
+        first = jax.tree.map(lambda x: np.asarray(x)[0], problem.ref)
+        t_last = jnp.asarray(last_compared_peak_time(first), float)
+    dem, st, h_err = _final_program(problem, jnp.asarray(beta, float), h_theta, t_last)
+    code = int(dem.status)
+    if code != STATUS_OK:
+        raise RuntimeError(
+            f"the DEM run at the fitted beta={beta:.6g} s failed: "
+            f"{STATUS_MESSAGES.get(code, 'unknown status')}."
+        )
+    return dem, tuple(float(x) for x in st), None if h_err is None else float(h_err)
+
+
+@eqx.filter_jit
+def _final_program(problem: CalibrationProblem, beta, h_theta, t_last):
+    dem = dem_run(problem, beta)
+    h_err = None
+    if h_theta is not None:
+        h_err = metrics.history_error(dem.theta, h_theta, (dem.t <= t_last).astype(float))
+    return dem, stats(problem, beta), h_err
 
 
 def _finish(
@@ -261,33 +297,17 @@ def _finish(
     t_start,
     e_range,
     root_finish=False,
+    final=None,
 ):
-    th0 = float(problem.theta0[0])
-    dem = simulate_dem(
-        problem.block,
-        beta=beta,
-        mode=problem.mode,
-        gap=float(problem.gap),
-        theta0=th0,
-        duration=problem.duration,
-        dt=float(problem.dt),
-        joint=problem.joint,
-        save_dt=SAVE_DT,
-    )
-    stats = stats_batch(problem, jnp.asarray([beta]))
-    loss, peak = float(np.asarray(stats[0])[0]), float(np.asarray(stats[3])[0])
+    dem, (loss, gap, _, peak), h_err = final or _final_runs(problem, beta, h_resps)
     e_eff = restitution(dem, problem.n_bounces, problem.mode)
     e3 = bounce_e_exp(dem, problem.mode)
-    h_err = None
     e_val = None
     housner = h_resps[0] if h_resps else None
     if problem.kind == "e":
-        e_val = float(problem.targets[0])
-        t_last = last_compared_time(housner, problem)
-        w = (np.asarray(dem.t) <= t_last).astype(float)
-        h_err = float(metrics.history_error(dem.theta, housner.theta, w))
+        e_val = float(np.asarray(problem.targets)[0])
         missed = e_missed(e_val, e_eff)
-        if missed and abs(float(np.asarray(stats[1])[0])) <= GAP_TOL:
+        if missed and abs(gap) <= GAP_TOL:
             missed[-1] += (
                 ", although the loss is met on the bounces that inform Housner's reference: "
                 "the DEM's restitution changes from bounce to bounce (e_exp 1-3 = "
@@ -354,7 +374,7 @@ def e_effective(
         joint=joint,
         gap=gap,
     )
-    log_e, e3, ok = _e_batch(problem, jnp.asarray(betas))
+    log_e, e3, ok = _e_batch(problem, betas)
     return {
         "beta": betas,
         "e": np.exp(np.asarray(log_e)),
@@ -376,6 +396,14 @@ def _e_batch(problem: CalibrationProblem, betas):
 
 _e_loss = forward_mode(housner_loss)
 _h_loss = forward_mode(history_loss)
+
+
+def _e_params(v, problem: EProblem):
+    return (jax.nn.sigmoid(v),)
+
+
+def _history_params(u, problem):
+    return history_params(problem, u)
 
 
 @eqx.filter_jit
@@ -453,12 +481,11 @@ def fit_e(
     )
     e0 = min(max(math.exp(log_e0), 1e-3), 1 - 1e-6)
     v = jnp.asarray(math.log(e0 / (1 - e0)))
-    v, hist, n_sims, n_iter, converged = solvers.minimize(
-        _e_loss, eproblem, v, lambda x: (float(jax.nn.sigmoid(x)),), rtol, max_iter
+    v, (e_fit,), hist, n_sims, n_iter, converged = solvers.minimize(
+        _e_loss, eproblem, v, _e_params, rtol, max_iter
     )
     hist_e = [e0] + [p[0] for p, _ in hist]
     hist_l = [val for _, val in hist]
-    e_fit = float(jax.nn.sigmoid(v))
     th0 = float(problem.theta0[0])
     dem = dem_run(problem, float(beta), th0)
     housner = simulate_housner(
@@ -527,20 +554,14 @@ def fit_history(
     block, theta0 = problem.block, float(problem.theta0)
     t = np.asarray(measured.t, float)
     save_dt = problem.save_dt
-    u, hist_raw, n_sims, n_iter, converged = solvers.minimize(
-        _h_loss,
-        problem,
-        jnp.zeros(2),
-        lambda x: tuple(float(y) for y in history_params(problem, x)),
-        rtol,
-        max_iter,
+    u, (beta, b), hist_raw, n_sims, n_iter, converged = solvers.minimize(
+        _h_loss, problem, jnp.zeros(2), _history_params, rtol, max_iter
     )
     hist = {
         "beta": [p[0] for p, _ in hist_raw],
         "b": [p[1] for p, _ in hist_raw],
         "loss": [v for _, v in hist_raw],
     }
-    beta, b = (float(x) for x in history_params(problem, u))
     fitted = eqx.tree_at(lambda k: k.b, block, b)
     dem = simulate_dem(
         fitted, beta=beta, mode=mode, theta0=theta0, duration=float(t[-1]), save_dt=save_dt

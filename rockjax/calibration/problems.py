@@ -126,6 +126,14 @@ def stats(problem: CalibrationProblem, beta):
     ``beta`` removes. ``target="bounces"``: the loss is the mean square of the three
     ``log e_exp,n - log target_n`` and the gap their mean.
     """
+    # One compiled function, traced once per problem: the scan (vmapped), the L-BFGS
+    # derivative (jvp) and its line search reuse its jaxpr instead of tracing the DEM run and
+    # the peak finder again (about a second each).
+    return _stats(problem, jnp.asarray(beta, float))
+
+
+@eqx.filter_jit
+def _stats(problem: CalibrationProblem, beta):
     pk, status = dem_peaks(problem, beta)
     if problem.kind == "e":
         gap = jnp.mean(jax.vmap(metrics.log_e_gap)(pk, problem.ref))
@@ -153,9 +161,13 @@ def last_compared_time(resp: Response, problem: CalibrationProblem) -> float:
     pk = metrics.peaks(
         resp.t, resp.theta, resp.eta, problem.n_bounces, problem.mode, problem.hysteresis
     )
-    keep = np.asarray(pk.valid) & (
-        np.asarray(pk.log_energy) - float(pk.log_energy[0]) >= math.log(MIN_ENERGY_RATIO)
-    )
+    return last_compared_peak_time(pk)
+
+
+def last_compared_peak_time(pk: metrics.Peaks) -> float:
+    """:func:`last_compared_time` from the peaks of one run (NumPy, on the host) [s]."""
+    log_energy = np.asarray(pk.log_energy)
+    keep = np.asarray(pk.valid) & (log_energy - log_energy[0] >= math.log(MIN_ENERGY_RATIO))
     return float(np.asarray(pk.t)[keep].max())
 
 
@@ -274,12 +286,20 @@ def check_n_bounces(n_bounces, default_hint: str = "") -> int:
 def housner_peaks(block, e, theta0, mode, n_bounces, duration):
     """``(peaks stacked over releases, responses)`` of Housner's free rocking with ``e`` from
     each of ``theta0`` [rad], saved every :data:`SAVE_DT` over ``duration`` [s]."""
-    pks, resps = [], []
-    for th in theta0:
-        r = simulate_housner(block, e=e, mode=mode, theta0=th, duration=duration, dt=SAVE_DT)
-        pks.append(metrics.peaks(r.t, r.theta, block.eta, n_bounces, mode, hysteresis(mode)))
-        resps.append(r)
-    return jax.tree.map(lambda *x: jnp.stack(x), *pks), resps
+    resps = [
+        simulate_housner(block, e=e, mode=mode, theta0=th, duration=duration, dt=SAVE_DT)
+        for th in theta0
+    ]
+    ts, thetas = [r.t for r in resps], [r.theta for r in resps]
+    return _stacked_peaks(ts, thetas, block.eta, n_bounces, mode, hysteresis(mode)), resps
+
+
+@eqx.filter_jit
+def _stacked_peaks(ts, thetas, eta, n_bounces, mode, hyst):
+    # One compiled program (eager, the peak finder would compile each of its small operations
+    # in every new process); the same numbers as eager, bit for bit.
+    pks = [metrics.peaks(t, th, eta, n_bounces, mode, hyst) for t, th in zip(ts, thetas)]
+    return jax.tree.map(lambda *x: jnp.stack(x), *pks)
 
 
 def build_problem(
@@ -356,24 +376,26 @@ def build_problem(
             _check_informative(None, e_val, th, mode, n_bounces)
         ref, resps = housner_peaks(block, e_val, th, mode, n_bounces, duration)
         _check_informative(ref, e_val, th, mode, n_bounces)
-        targets = jnp.asarray([abs(e_val)])
+        targets = jax.device_put(np.asarray([abs(e_val)]))
     else:
+        zeros = jax.device_put(np.zeros((th.size, n_bounces + 1)))
         ref = metrics.Peaks(
-            t=jnp.zeros((th.size, n_bounces + 1)),
-            amplitude=jnp.zeros((th.size, n_bounces + 1)),
-            log_energy=jnp.zeros((th.size, n_bounces + 1)),
-            valid=jnp.zeros((th.size, n_bounces + 1), bool),
-            n_impacts=jnp.zeros(th.size, jnp.int32),
+            t=zeros,
+            amplitude=zeros,
+            log_energy=zeros,
+            valid=jax.device_put(np.zeros((th.size, n_bounces + 1), bool)),
+            n_impacts=jax.device_put(np.zeros(th.size, np.int32)),
         )
-        targets = jnp.asarray(BOUNCE_FRACTIONS) * abs(float(e_isr(block)))
+        targets = jax.device_put(np.asarray(BOUNCE_FRACTIONS) * abs(float(e_isr(block))))
     out = CalibrationProblem(
         block=block,
-        theta0=jnp.asarray(th),
+        # device_put, not jnp.asarray: that would compile a copy of each array in each process
+        theta0=jax.device_put(th),
         ref=ref,
         targets=targets,
         dt=float(dt),
-        gap=jnp.asarray(float(gap)),
-        scale=jnp.asarray(1.0),
+        gap=jax.device_put(np.float64(gap)),
+        scale=jnp.asarray(1.0, float),
         beta_cap=jnp.asarray(beta_cap),
         mode=mode,
         kind=target,

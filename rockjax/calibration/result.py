@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import jax
 import numpy as np
 
 from .. import metrics
@@ -290,9 +291,12 @@ def bounce_e_exp(resp: Response, mode: str) -> np.ndarray:
     happen)."""
     amp = bounce_amplitudes(resp, mode)[:3]
     th0 = abs(float(np.asarray(resp.theta)[0]))
-    out = np.full(3, np.nan)
-    out[: amp.size] = np.asarray(e_exp(amp, th0, float(resp.eta), np.arange(1, amp.size + 1)))
-    return out
+    padded = np.full(3, np.nan)  # a missing bounce gives NaN; one shape, one compiled program
+    padded[: amp.size] = amp
+    return np.asarray(_e_exp(padded, th0, float(resp.eta), np.arange(1, 4)))
+
+
+_e_exp = jax.jit(e_exp)  # one small program instead of an eager compilation of each operation
 
 
 def hysteresis(mode: str) -> float:

@@ -25,68 +25,81 @@ _OPT = optax.lbfgs(
 
 
 @eqx.filter_jit
-def _value_and_grad(loss, u, problem):
-    return jax.value_and_grad(loss)(u, problem)
+def _init(u):
+    # strong types, as _step returns them (a weakly typed count would trace _step again)
+    return jax.tree.map(lambda x: jnp.asarray(x, x.dtype), _OPT.init(u))
 
 
 @eqx.filter_jit
-def _update(loss, u, state, value, grad, problem):
+def _step(loss, params_of, u, state, problem):
+    # One compiled program per iteration (the derivative, the line search and the update),
+    # which the persistent cache keeps; the parameters are computed here too, so that the
+    # driver does no eager arithmetic (each new eager operation compiles a small program).
+    value, grad = jax.value_and_grad(loss)(u, problem)
+
     def fn(x):
         return loss(x, problem)
 
     updates, state = _OPT.update(grad, state, u, value=value, grad=grad, value_fn=fn)
     n_ls = optax.tree_utils.tree_get(state, "num_linesearch_steps")
     failed = optax.tree_utils.tree_get(state, "decrease_error") > 0
-    return optax.apply_updates(u, updates), state, n_ls, failed
+    u_new = optax.apply_updates(u, updates)
+    params = jnp.stack([jnp.asarray(p, float) for p in params_of(u, problem)])
+    params_new = jnp.stack([jnp.asarray(p, float) for p in params_of(u_new, problem)])
+    return value, u_new, state, n_ls, failed, params, params_new
 
 
 def minimize(loss, problem, u0, params_of, rtol: float, max_iter: int, on_step=None):
     """L-BFGS on ``loss(u, problem)`` from ``u0``.
 
-    Stops when no parameter (``params_of(u)``, a tuple of floats) moves by more than ``rtol``
-    relative in an iteration, or when the line search twice in a row (the second time from a
-    reset curvature memory) finds no decrease: a stationary point to within the loss's
-    numerical noise. ``on_step(params, loss)``, if given, is called after every iteration (a
-    progress bar).
+    Stops when no parameter (``params_of(u, problem)``, a tuple of scalars; traced, so give a
+    module-level function: a new one compiles again) moves by more than ``rtol`` relative in
+    an iteration, or when the line search twice in a row (the second time from a reset
+    curvature memory) finds no decrease: a stationary point to within the loss's numerical
+    noise. ``on_step(params, loss)``, if given, is called after every iteration (a progress
+    bar).
 
-    Returns ``(u, history of (params, loss), n_simulations, n_iterations, converged)``; one
-    simulation is one loss evaluation (with or without its derivative).
+    Returns ``(u, params of u, history of (params, loss), n_simulations, n_iterations,
+    converged)``, params as tuples of floats; one simulation is one loss evaluation (with or
+    without its derivative).
 
     Raises:
         ValueError: the loss is not finite (a simulation failed).
     """
-    u = jnp.asarray(u0, float)
-    state = _OPT.init(u)
+    u = jax.device_put(np.asarray(u0, float))
+    state = _init(u)
     hist, n_sims, converged, n_iter, restarted = [], 0, False, 0, False
-    prev = params_of(u)
     for n_iter in range(1, max_iter + 1):
-        value, grad = _value_and_grad(loss, u, problem)
+        value, u_new, state_new, n_ls, failed, p_u, p_new = _step(
+            loss, params_of, u, state, problem
+        )
+        value, prev = float(value), tuple(float(x) for x in np.asarray(p_u))
         n_sims += 1
-        if not np.isfinite(float(value)):
+        if not np.isfinite(value):
             raise ValueError(
                 f"the calibration loss is not finite at {prev} (a simulation failed); "
                 "check the block, or narrow beta_max."
             )
-        u_new, state, n_ls, failed = _update(loss, u, state, value, grad, problem)
         n_sims += int(n_ls)
         if on_step is not None:
-            on_step(prev, float(value))
+            on_step(prev, value)
         if bool(failed):
-            hist.append((prev, float(value)))
+            hist.append((prev, value))
             if restarted:  # twice in a row: stationary to within the loss's noise
                 converged = True
                 break
-            state, restarted = _OPT.init(u), True  # drop the curvature memory, retry
+            state, restarted = _init(u), True  # drop the curvature memory, retry
             continue
         restarted = False
-        u = u_new
-        now = params_of(u)
-        hist.append((now, float(value)))
-        if all(abs(a - b) <= rtol * max(abs(a), 1e-12) for a, b in zip(now, prev)):
+        u, state = u_new, state_new
+        now = tuple(float(x) for x in np.asarray(p_new))
+        hist.append((now, value))
+        done = all(abs(a - b) <= rtol * max(abs(a), 1e-12) for a, b in zip(now, prev))
+        prev = now  # the parameters of u
+        if done:
             converged = True
             break
-        prev = now
-    return u, hist, n_sims, n_iter, converged
+    return u, prev, hist, n_sims, n_iter, converged
 
 
 def interp_root(scan, gap_s) -> float:
@@ -111,7 +124,7 @@ def grid(problem: CalibrationProblem, bmax: float, n_grid: int, chunk: int = 64)
     for i in range(0, n_grid, chunk):
         part = betas[i : i + chunk]
         pad = chunk - part.size
-        ls = stats_batch(problem, jnp.asarray(np.pad(part, (0, pad), mode="edge")))[0]
+        ls = stats_batch(problem, np.pad(part, (0, pad), mode="edge"))[0]
         losses.append(np.asarray(ls)[: part.size])
     gl = np.concatenate(losses)
     i = int(np.nanargmin(gl))
@@ -137,7 +150,7 @@ def illinois(problem: CalibrationProblem, scan, gap_s, rtol: float, max_iter: in
     c = a
     for n in range(1, max_iter + 1):
         c = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
-        lc, gc, _, _ = (float(np.asarray(x)[0]) for x in stats_batch(problem, jnp.asarray([c])))
+        lc, gc, _, _ = (float(np.asarray(x)[0]) for x in stats_batch(problem, np.asarray([c])))
         hb.append(c)
         hl.append(lc)
         if on_step is not None:
