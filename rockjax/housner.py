@@ -294,50 +294,29 @@ class _Record(eqx.Module):
     ag: Array  # [m/s^2], one value per sample (padded by repeating the last one)
     ag_v: Array | None
     dt: Array  # sample spacing [s]: data, so records of any step share one compilation
-    # A moving return wall (one-sided; docs/three_branch.md, "Moving return walls"), or None:
-    # one row per sample, ``[theta_w, theta_w', E_+, E_-]``: the wall's rotation
-    # ``theta_w = u_top / h`` [rad] and rate [rad/s], and the uplift excess (``_wall_excess``
-    # [m/s^2]) of a block resting on it at the sample on the interval the sample starts
-    # (``E_+``) and on the one it ends (``E_-``): the wall's acceleration may jump at a sample.
-    # A pass reads its interval's two rows once (one gather); the excess at a sample is then a
-    # read, not a wall and block evaluation (``with_wall``).
-    wall_rows: Array | None = None
+    # A moving return wall (one-sided; docs/three_branch.md, "Moving return walls"): its
+    # rotation theta_w = u_top / h [rad] and rate [rad/s] at the samples, or None.
+    wall_theta: Array | None = None
+    wall_rate: Array | None = None
+    # With a moving wall: the restoring acceleration A_+ [rad/s^2] of a block resting on it
+    # at each sample (on the interval the sample starts), computed once per run for the rest
+    # rule's look-ahead (``with_wall_restoring``).
+    wall_restoring: Array | None = None
 
-    def with_wall(self, theta, rate, params: _Params) -> _Record:
-        """This record with the wall's rows built from its rotation and rate at the samples."""
-        zero = jnp.zeros_like(theta)
-        record = eqx.tree_at(
-            lambda r: r.wall_rows,
-            self,
-            jnp.stack([theta, rate, zero, zero], axis=-1),
-            is_leaf=lambda x: x is None,
-        )
-        t = jnp.arange(theta.shape[0]) * self.dt
-        half = 0.5 * self.dt  # a time inside the interval: which one, without rounding doubt
-        e_plus = _wall_excess(t, record, params, record, record.wall_interval(t + half))
-        e_minus = _wall_excess(t, record, params, record, record.wall_interval(t - half))
-        rows = record.wall_rows.at[:, 2].set(e_plus).at[:, 3].set(e_minus)
-        return eqx.tree_at(lambda r: r.wall_rows, record, rows)
-
-    def wall_interval(self, t_ref):
-        """``(i, rows)``: the wall's sample interval ``[t_i, t_i+1]`` holding ``t_ref`` (``i``
-        as a float) and its two rows (one gather)."""
-        n = self.wall_rows.shape[0]
-        x = _clip(t_ref / self.dt, 0.0, n - 1.0)
-        i = jax.lax.stop_gradient(_clip(jnp.floor(x), 0.0, n - 2.0))
-        j = i.astype(jnp.int32)
-        return i, self.wall_rows[jnp.stack([j, j + 1], axis=-1)]
-
-    def wall(self, t, interval=None):
+    def wall(self, t, t_ref=None):
         """``(theta_w, theta_w', theta_w'')`` at time ``t`` [rad, rad/s, rad/s^2]: the cubic
-        Hermite fit of the samples' rotation and rate on ``interval`` (``wall_interval``;
-        default the one holding ``t``; a solver step passes its own, so that its ends use it:
-        the wall's acceleration may jump at a sample), exact for a wall whose acceleration is
-        linear between samples."""
-        i, rows = self.wall_interval(t) if interval is None else interval
-        r = _clip(t / self.dt, 0.0, self.wall_rows.shape[0] - 1.0) - i
-        p0, p1 = rows[..., 0, 0], rows[..., 1, 0]
-        m0, m1 = rows[..., 0, 1] * self.dt, rows[..., 1, 1] * self.dt
+        Hermite fit of the samples' rotation and rate on the interval holding ``t_ref``
+        (default ``t``; a solver step passes its midpoint, so that its ends use its own
+        interval: the wall's acceleration may jump at a sample), exact for a wall whose
+        acceleration is linear between samples."""
+        n = self.wall_theta.shape[0]
+        x = _clip(t / self.dt, 0.0, n - 1.0)
+        x_ref = x if t_ref is None else _clip(t_ref / self.dt, 0.0, n - 1.0)
+        i = jax.lax.stop_gradient(_clip(jnp.floor(x_ref), 0.0, n - 2.0))
+        r = x - i
+        i = i.astype(jnp.int32)
+        p0, p1 = self.wall_theta[i], self.wall_theta[i + 1]
+        m0, m1 = self.wall_rate[i] * self.dt, self.wall_rate[i + 1] * self.dt
         r2 = r * r
         theta = (
             (2 * r2 * r - 3 * r2 + 1) * p0
@@ -348,6 +327,14 @@ class _Record(eqx.Module):
         rate = (6 * r2 - 6 * r) * (p0 - p1) + (3 * r2 - 4 * r + 1) * m0 + (3 * r2 - 2 * r) * m1
         accel = (12 * r - 6) * (p0 - p1) + (6 * r - 4) * m0 + (6 * r - 2) * m1
         return theta, rate / self.dt, accel / (self.dt * self.dt)
+
+    def with_wall_restoring(self, params: _Params) -> _Record:
+        """This record with ``wall_restoring`` filled in (a moving wall only): the rest rule
+        reads it at up to ``REST_HORIZON`` samples after every impact, one gather each instead
+        of the wall's cubic and the forcing at each."""
+        t = jnp.arange(self.wall_theta.shape[0]) * self.dt
+        a = -params.p2_over_g * params.cos_eta * _wall_excess(t, self, params, self)
+        return eqx.tree_at(lambda r: r.wall_restoring, self, a, is_leaf=lambda x: x is None)
 
     def _eval(self, ys, t):
         n = ys.shape[0]
@@ -607,18 +594,18 @@ def _restoring(a_g, g_eff, params: _Params):
     return k * (g_eff * params.lam_up + a_g), k * (g_eff * params.lam_up - a_g)
 
 
-def _wall_excess(t, record: _Record, params: _Params, forcing, interval=None):
+def _wall_excess(t, record: _Record, params: _Params, forcing, t_ref=None):
     """How much faster than the wall [m/s^2, as ``theta_ddot / k``, ``k = p^2 cos(eta) / g``]
     a block resting against it at ``theta = theta_w(t)`` would accelerate away from it on its
     own (pivot +1): it leaves the wall when this turns positive. Without wall motion it is
     ``-a_g - g_eff tan(eta)``, the fixed wall's uplift excess."""
-    theta_w, _, accel_w = record.wall(t, interval)
+    theta_w, _, accel_w = record.wall(t, t_ref)
     free = _theta_ddot(t, theta_w, jnp.ones_like(theta_w), params, forcing)
     return (free - accel_w) / (params.p2_over_g * params.cos_eta)
 
 
 def _rests(
-    t_imp, w, s_new, line: _Line, record: _Record, params: _Params, one_sided: bool, excess=None
+    t_imp, w, s_new, line: _Line, record: _Record, params: _Params, one_sided: bool, t_mid=None
 ):
     """The rest rule after an impact at ``t_imp`` with rebound speed ``w = |theta_dot+|`` onto
     pivot ``s_new``. See docs/theory.md, "Housner rest and chatter rule".
@@ -637,17 +624,16 @@ def _rests(
     ``REST_HOP eta`` rests whatever the forcing ahead (the block then lifts at the exact
     threshold crossing; the motion given up is a hop of that size).
 
-    With a moving wall ``excess`` is ``_wall_excess`` at ``t_imp``.
-
     Returns:
         ``(rests, hop)``: the decision and, for the first clause, the first hop's height
         ``w^2 / (2 A_new)`` [rad] (added to ``theta_max``).
     """
     k = params.p2_over_g * params.cos_eta
-    if record.wall_rows is None:
+    if record.wall_theta is None:
         ap0, am0 = _restoring(*line.at(t_imp), params)
     else:  # relative to the moving wall: A_+ = -(block's free acceleration - wall's)
-        ap0 = am0 = -k * excess
+        ap0 = -k * _wall_excess(t_imp, record, params, line, t_mid)
+        am0 = ap0
     e = params.e
     if one_sided:
         a_new = a_other = ap0
@@ -667,15 +653,15 @@ def _rests(
         return ok if one_sided else ok & (~inside | (am >= REST_A_MARGIN * am0))
 
     def restoring_at(t):
-        if record.wall_rows is None:
+        if record.wall_theta is None:
             return _restoring(*record.at(t), params)
         a = -k * _wall_excess(t, record, params, record)
         return a, a
 
     def restoring_samples(i):
-        if record.wall_rows is None:
+        if record.wall_theta is None:
             return _restoring(*record.sample(i), params)
-        a = -k * record.wall_rows[_clip(i, 0, record.wall_rows.shape[0] - 1), 2]  # E_+
+        a = record.wall_restoring[_clip(i, 0, record.wall_restoring.shape[0] - 1)]
         return a, a
 
     stays = fits & keeps(*restoring_at(t_end), jnp.ones_like(fits))
@@ -700,9 +686,6 @@ class _Hit(eqx.Module):
     # With a three-branch law: the level of u = s theta crossed [rad], 0 for the wall (an
     # impact) or a kink of the law (u1, u2 > 0: the state is put on it, nothing else changes).
     level: Array | None = None
-    # With a moving wall: the uplift excess at the time the state holds at [m/s^2] (read by
-    # the next pass when that time is not a sample).
-    excess: Array | None = None
 
 
 def _pass(
@@ -714,7 +697,6 @@ def _pass(
     record: _Record,
     params: _Params,
     one_sided: bool,
-    n_sub: int = 1,
 ):
     """One masked pass of a step, of one of two kinds, with one Runge-Kutta step either way
     (so the loop body holds one copy of it: half the graph to trace and compile).
@@ -726,27 +708,18 @@ def _pass(
       ``tau' = tau - theta/theta_dot`` on the true trajectory with the state advanced linearly
       to ``tau'``, the impact map and the rest rule; the state holds at ``tau'``.
 
-    With a moving wall the uplift excess at ``ta`` is read from the wall's rows when ``ta`` is
-    a sample, else from ``hit.excess`` (the previous pass's value at the time it left the
-    state at); at ``t1`` from the rows when steps end at samples (``n_sub == 1``), else
-    evaluated.
-
     Returns the state, the time it holds at and the hit for the next pass.
     """
     pending = hit.pending
-    moving_wall = record.wall_rows is not None  # static: one-sided with a moving return wall
+    moving_wall = record.wall_theta is not None  # static: one-sided with a moving return wall
     # (1) At rest: lift off when the forcing first exceeds the threshold in [ta, t1].
-    excess = interval = None
+    excess = None
+    t_mid = 0.5 * (ta + t1)  # the step's sample interval, for the wall's cubic
     if moving_wall:
-        interval = record.wall_interval(0.5 * (ta + t1))  # the step's sample interval
-        i_w, rows = interval
-        t_i = i_w * record.dt
-        excess_a = _where(ta == t_i, rows[0, 2], hit.excess)
-        if n_sub == 1:  # t1 is the interval's end, or (a step of length 0) its start
-            excess_b = _where(t1 == t_i, rows[0, 2], rows[1, 3])
-        else:
-            excess_b = _wall_excess(t1, record, params, line, interval)
-        excess = (excess_a, excess_b)
+        excess = (
+            _wall_excess(ta, record, params, line, t_mid),
+            _wall_excess(t1, record, params, line, t_mid),
+        )
     lifts, t_up, s_up = _uplift(ta, t1, line, params, one_sided, excess)
     lift_now = (y.s == 0) & lifts & (y.overturned == 0) & ~pending
     s = _where(lift_now, s_up, y.s)
@@ -754,7 +727,7 @@ def _pass(
     rocking = (s != 0) & (y.overturned == 0)
     theta_a, theta_dot_a = y.theta, y.theta_dot
     if moving_wall:  # at rest the block rides on the wall: it lifts with the wall's state
-        wall_up, rate_up, _ = record.wall(ta, interval)
+        wall_up, rate_up, _ = record.wall(ta, t_mid)
         theta_a = _where(lift_now, wall_up, theta_a)
         theta_dot_a = _where(lift_now, rate_up, theta_dot_a)
 
@@ -779,8 +752,8 @@ def _pass(
     # the gap to the wall: g = u, or theta - theta_w(t) with a moving wall (pivot s = +1)
     g0, dg0, g1, dg1 = u0, du0, u1, du1
     if moving_wall:
-        wall_a, rate_a, _ = record.wall(ta, interval)
-        wall_b, rate_b, _ = record.wall(t1, interval)
+        wall_a, rate_a, _ = record.wall(ta, t_mid)
+        wall_b, rate_b, _ = record.wall(t1, t_mid)
         g0, dg0 = theta_a - wall_a, h * (theta_dot_a - rate_a)
         g1, dg1 = theta_f - wall_b, h * (theta_dot_f - rate_b)
     x_turn, g_turn = jax.lax.cond(
@@ -809,56 +782,45 @@ def _pass(
         )
     advance = ~pending & rocking & ~crossed
 
-    # (4) Impact: one Newton step on the true trajectory, the impact map, the rest rule. Only
-    # when some record of the batch impacts (about one pass in ten): the rule reads the record
-    # at up to REST_HORIZON + 2 times (gathers, the costliest part of a pass in a batch) and
-    # a moving wall is evaluated twice more.
-    wall = pending if hit.level is None else pending & (hit.level == 0)
-
-    def impact():
-        theta_tau, theta_dot_tau = theta_f, theta_dot_f
-        if moving_wall:
-            wall_tau, rate_tau, _ = record.wall(hit.tau, interval)
-            gap, closing = theta_tau - wall_tau, theta_dot_tau - rate_tau
-            t_wall = _clip(hit.tau - gap / _safe(closing), ta, hit.t_hi)
-        else:
-            t_wall = _clip(hit.tau - theta_tau / _safe(theta_dot_tau), ta, hit.t_hi)
-        if hit.level is None:
-            t_impact = t_wall
-            theta_at = jnp.zeros_like(t_wall)
-        else:  # a kink: the same Newton step to u = level, then no impact map
-            theta_kink = s * hit.level
-            t_kink = _clip(hit.tau - (theta_tau - theta_kink) / _safe(theta_dot_tau), ta, hit.t_hi)
-            t_impact = _where(wall, t_wall, t_kink)
-            theta_at = _where(wall, 0.0, theta_kink)
-        theta_dot_tau = theta_dot_tau + accel(hit.tau, theta_tau) * (t_impact - hit.tau)
-        rate_at = jnp.zeros_like(t_impact)  # the wall's rate at the impact [rad/s]
-        if moving_wall:
-            # restitution of the velocity relative to the wall (the paper's rule in its frame)
-            wall_at, rate_at, _ = record.wall(t_impact, interval)
-            theta_at = _where(wall, wall_at, theta_at)
-            theta_dot_plus, s_plus = rate_at - params.e * (theta_dot_tau - rate_at), s
-        elif one_sided:
-            theta_dot_plus, s_plus = -params.e * theta_dot_tau, s
-        else:
-            theta_dot_plus, s_plus = params.e * theta_dot_tau, -s
-        if hit.level is not None:
-            theta_dot_plus = _where(wall, theta_dot_plus, theta_dot_tau)
-            s_plus = _where(wall, s_plus, s)
-        rebound = jnp.abs(theta_dot_plus - rate_at)
-        excess_at = jnp.zeros_like(t_impact)  # a moving wall's uplift excess at the impact
-        if moving_wall:
-            excess_at = _wall_excess(t_impact, record, params, line, interval)
-        rests, hop = _rests(t_impact, rebound, s_plus, line, record, params, one_sided, excess_at)
-        out = (t_impact, theta_at, theta_dot_tau, theta_dot_plus, s_plus, rate_at, excess_at)
-        return *out, rests, hop
-
-    def no_impact():
-        zero = jnp.zeros_like(theta_f)
-        return ta, zero, theta_dot_f, zero, s, zero, zero, jnp.zeros_like(pending), zero
-
-    (t_impact, theta_at, theta_dot_tau, theta_dot_plus, s_plus, rate_at, excess_at, rests, hop) = (
-        jax.lax.cond(eqxi.unvmap_any(pending), impact, no_impact)
+    # (4) Impact: one Newton step on the true trajectory, the impact map, the rest rule.
+    theta_tau, theta_dot_tau = theta_f, theta_dot_f
+    if moving_wall:
+        wall_tau, rate_tau, _ = record.wall(hit.tau, t_mid)
+        gap, closing = theta_tau - wall_tau, theta_dot_tau - rate_tau
+        t_wall = _clip(hit.tau - gap / _safe(closing), ta, hit.t_hi)
+    else:
+        t_wall = _clip(hit.tau - theta_tau / _safe(theta_dot_tau), ta, hit.t_hi)
+    if hit.level is None:
+        t_impact = t_wall
+        wall = pending
+        theta_at = jnp.zeros_like(t_wall)
+    else:  # a kink: the same Newton step to u = level, then no impact map
+        wall = pending & (hit.level == 0)
+        theta_kink = s * hit.level
+        t_kink = _clip(hit.tau - (theta_tau - theta_kink) / _safe(theta_dot_tau), ta, hit.t_hi)
+        t_impact = _where(wall, t_wall, t_kink)
+        theta_at = _where(wall, 0.0, theta_kink)
+    theta_dot_tau = theta_dot_tau + accel(hit.tau, theta_tau) * (t_impact - hit.tau)
+    rate_at = jnp.zeros_like(t_impact)  # the wall's rate at the impact [rad/s]
+    if moving_wall:
+        # restitution of the velocity relative to the wall (the paper's rule in its frame)
+        wall_at, rate_at, _ = record.wall(t_impact, t_mid)
+        theta_at = _where(wall, wall_at, theta_at)
+        theta_dot_plus, s_plus = rate_at - params.e * (theta_dot_tau - rate_at), s
+    elif one_sided:
+        theta_dot_plus, s_plus = -params.e * theta_dot_tau, s
+    else:
+        theta_dot_plus, s_plus = params.e * theta_dot_tau, -s
+    if hit.level is not None:
+        theta_dot_plus = _where(wall, theta_dot_plus, theta_dot_tau)
+        s_plus = _where(wall, s_plus, s)
+    # The rule reads the record at up to REST_HORIZON + 2 times (gathers, the costliest part
+    # of a pass in a batch): only when some record of the batch impacts.
+    rebound = jnp.abs(theta_dot_plus - rate_at) if moving_wall else jnp.abs(theta_dot_plus)
+    rests, hop = jax.lax.cond(
+        eqxi.unvmap_any(pending),
+        lambda: _rests(t_impact, rebound, s_plus, line, record, params, one_sided, t_mid),
+        lambda: (jnp.zeros_like(pending), jnp.zeros_like(t_impact)),
     )
     rests = wall & rests
 
@@ -899,9 +861,6 @@ def _pass(
         tau=_where(crossed, ta + x * h, hit.tau),
         t_hi=_where(crossed, ta + xb * h, hit.t_hi),
         level=None if level is None else _where(crossed, level, hit.level),
-        excess=None
-        if excess is None
-        else _where(pending, excess_at, _where(crossed, excess[0], excess[1])),
     )
     return y_new, ta_new, hit_new
 
@@ -996,7 +955,7 @@ def _run(
         active = c.k < n_steps  # False only for a finished record of a vmap batch
         t1 = _step_time(c.k + 1, n_sub, dt_out, dt_step)
         line = record.line(_step_time(c.k, n_sub, dt_out, dt_step), t1)
-        y, ta, hit = _pass(c.y, c.ta, c.hit, t1, line, record, params, one_sided, n_sub)
+        y, ta, hit = _pass(c.y, c.ta, c.hit, t1, line, record, params, one_sided)
         # A step may explore max_impacts + 1 times, each exploration that finds a crossing
         # followed by its impact pass; then it ends, resolved (ta = t1) or not.
         passes = c.passes + (~c.hit.pending).astype(jnp.int32)
@@ -1030,11 +989,10 @@ def _run(
         tau=t0,
         t_hi=t0,
         level=None if params.law is None else jnp.zeros_like(t0),
-        excess=None if record.wall_rows is None else jnp.zeros_like(t0),
     )
     carry0 = _Carry(y=y0, ta=t0, k=zero, passes=zero, hit=hit0, out=out0)
     ag_v0 = None if record.ag_v is None else record.ag_v[0]
-    wall0 = None if record.wall_rows is None else record.wall_rows[0]
+    wall0 = None if record.wall_theta is None else (record.wall_theta[0], record.wall_rate[0])
     carry0 = _entangle(carry0, (params, record.ag[0], ag_v0, record.dt, wall0))
     carry = eqxi.while_loop(
         cond,
@@ -1443,7 +1401,8 @@ def _simulate(
     if wall is None:
         record = _Record(ag=ag, ag_v=ag_v, dt=dt_out)
     else:
-        record = _Record(ag=ag, ag_v=ag_v, dt=dt_out).with_wall(wall[0], wall[1], params)
+        record = _Record(ag=ag, ag_v=ag_v, dt=dt_out, wall_theta=wall[0], wall_rate=wall[1])
+        record = record.with_wall_restoring(params)
     moving = (theta0 != 0) | (theta_dot0 != 0)
     if one_sided:
         s0 = jnp.where(moving, 1.0, 0.0)
