@@ -78,6 +78,7 @@ from .response import (
     STATUS_UNSTABLE,
     Response,
 )
+from .walls import wall_arrays, wall_line, wall_pivot, wall_rise
 
 MODES = ("two_sided", "one_sided")
 
@@ -444,41 +445,28 @@ def _wall_geometry(params: DemParams, wall):
 
     The line is the back face of the block rocked rigidly to ``theta_w = u_top / h``, moved
     back by ``gap``: turned about its toe ``(b/2, 0)`` for ``theta_w > 0`` (the heel goes to
-    ``(b/2 - b cos theta_w, b sin theta_w)``), about its heel for ``theta_w < 0``:
-    ``x = -b/2 - gap - d (1 / cos(theta_w) - 1) + y tan(theta_w)``, ``d = b`` or 0
-    (``-b/2 - gap + theta_w y - b theta_w^2 / 2`` to second order for ``theta_w > 0``). A
-    block riding on the wall with ``theta = theta_w`` touches it along its whole back face, as
-    in the analytical model, whose gap is ``theta - theta_w`` (docs/pushover.md, "Moving
-    return walls")."""
+    ``(b/2 - b cos theta_w, b sin theta_w)``), about its heel for ``theta_w < 0``
+    (:func:`rockjax.walls.wall_line` with ``d = b`` or 0). A block riding on the wall with
+    ``theta = theta_w`` touches it along its whole back face, as in the analytical model,
+    whose gap is ``theta - theta_w`` (docs/pushover.md, "Moving return walls")."""
     wall_x = -0.5 * params.b - params.gap
     if wall is None:
         return wall_x, 0.0, 0.0, 0.0
-    u_top, v_top = wall
-    theta_w, rate = u_top / params.h, v_top / params.h
-    # tan and 1/cos - 1 by their Taylor series, and their exact derivatives (so the rates are
-    # the derivatives of the line used: the energy balance closes), as step() turns theta: no
-    # transcendental function in the loop. Truncation below 1e-7 of either for
-    # |theta_w| <= 0.3 rad; exactly 0 at theta_w = 0.
-    s2 = theta_w * theta_w
-    slope = theta_w * (1.0 + s2 * (1 / 3 + s2 * (2 / 15 + s2 * (17 / 315 + s2 * 62 / 2835))))
-    slope_d = 1.0 + s2 * (1.0 + s2 * (2 / 3 + s2 * (17 / 45 + s2 * 62 / 315)))
-    sec_m1 = s2 * (1 / 2 + s2 * (5 / 24 + s2 * (61 / 720 + s2 * 277 / 8064)))
-    sec_m1_d = theta_w * (1.0 + s2 * (5 / 6 + s2 * (61 / 120 + s2 * 277 / 1008)))
-    d = jnp.where(theta_w > 0.0, params.b, 0.0)  # the pivot's distance from the face
-    return wall_x - d * sec_m1, slope, -d * sec_m1_d * rate, slope_d * rate
+    theta_w = wall[0] / params.h
+    d = wall_pivot(theta_w, params.b, 0.0)  # the pivot's distance from the face
+    return wall_line(wall_x, d, theta_w, wall[1] / params.h)
 
 
 def _wall_rise(params: DemParams, wall, x_pt):
     """Vertical velocity [m/s] of the wall's material at ``x = x_pt``: the wall turns rigidly
     at ``theta_w' = v_top / h`` about the (gap-shifted) toe ``(b/2 - gap, 0)`` for
-    ``theta_w > 0``, about the heel ``(-b/2 - gap, 0)`` otherwise (:func:`_wall_geometry`), so
-    its face rises at ``theta_w' (x_pivot - x)`` (0 for a fixed wall). A facade riding on it
-    turns about the same corner at the same rate: no slip along the wall."""
+    ``theta_w > 0``, about the heel ``(-b/2 - gap, 0)`` otherwise
+    (:func:`rockjax.walls.wall_rise`; 0 for a fixed wall)."""
     if wall is None:
         return 0.0
     theta_w = wall[0] / params.h
-    x_pivot = jnp.where(theta_w > 0.0, 0.5 * params.b, -0.5 * params.b) - params.gap
-    return wall[1] / params.h * (x_pivot - x_pt)
+    x_pivot = wall_pivot(theta_w, 0.5 * params.b - params.gap, -0.5 * params.b - params.gap)
+    return wall_rise(x_pivot, wall[1] / params.h, x_pt)
 
 
 def _wall_line(params: DemParams, wall, x_pt, y_pt, xd_pt, yd_pt):
@@ -1067,9 +1055,9 @@ def simulate_dem(
     Args:
         block: The block (geometry and material), or an :class:`rockjax.Assembly` of several
             blocks: that runs :func:`rockjax.simulate_assembly` (per-block ``theta``, ``x``,
-            ``y``; ``mode="one_sided"`` and ``gap`` put every block's back face on a fixed
-            return wall; ``wall_motion`` and ``save="forces"`` do not apply) and returns its
-            :class:`rockjax.AssemblyResponse`.
+            ``y``; ``mode="one_sided"`` and ``gap`` put every block's back face on a return
+            wall, fixed or moving with ``wall_motion``; ``save="forces"`` does not apply) and
+            returns its :class:`rockjax.AssemblyResponse`.
         motion: Ground motion; ``None`` for free rocking (then ``duration`` is required).
         beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1), alpha = 0.
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade with a return wall at -x).
@@ -1175,7 +1163,7 @@ def simulate_dem(
     ag, ag_v, dt_out = prepare_motion(motion, duration, save_dt)
     wall = None
     if wall_motion is not None:  # a fixed wall takes the path without wall arrays
-        wall = _wall_arrays(wall_motion, motion, block, ag, dt_out, n_record)
+        wall = wall_arrays(wall_motion, motion, block.h, ag, dt_out, n_record)
     accuracy = _check_accuracy(accuracy, mode, joint)
     limit, dt_default = _concrete_steps(params, block, beta_max, joint, mode, dt, accuracy)
     if dt is None:
@@ -1284,66 +1272,16 @@ def _cut(resp: Response, n: int) -> Response:
     )
 
 
-def _wall_arrays(wall_motion, motion, block, ag, dt_out, n_record):
-    """``(u_top, v_top)`` [m, m/s] of a moving wall at the run's samples."""
-    n = ag.shape[0]
-    xp = np if concrete(ag) is not None else jnp
-    n_rec = n if n_record is None else n_record
-    if _is_array_pair(wall_motion):
-        u, v = wall_motion
-    else:
-        from .building import ShearBuilding, wall_top_motion  # lazily: building imports dem
-
-        gm = motion if motion is not None else GroundMotion.zeros(n * dt_out, dt_out)
-        ag = concrete(gm.ag)
-        if isinstance(wall_motion, ShearBuilding) and ag is not None and not is_traced(wall_motion):
-            # the building's solve, compiled per record length, runs on the record padded to
-            # its bucket (its last sample repeated; the solve is causal, so the first n_rec
-            # samples are the same), then cut on the host: one compilation per bucket
-            n_bucket = padded_length(n_rec)
-            gm = GroundMotion(ag=np.pad(ag, (0, n_bucket - n_rec), mode="edge"), dt=gm.dt)
-            u, v = wall_top_motion(wall_motion, gm, block.h)
-            u, v = np.asarray(u)[:n_rec], np.asarray(v)[:n_rec]
-        else:
-            u, v = wall_top_motion(wall_motion, gm, block.h)
-    for name, a in (("u_top", u), ("v_top", v)):
-        if np.shape(a) != (n_rec,):
-            raise ValueError(
-                f"wall_motion: {name} must have one value per record sample, shape ({n_rec},); "
-                f"got shape {np.shape(a)}. Sample the wall at the record's dt."
-            )
-        a_c = concrete(a)
-        if a_c is not None and not np.all(np.isfinite(a_c)):
-            raise ValueError(f"wall_motion: {name} [m or m/s] contains non-finite values.")
-    xp = np if concrete(u) is not None and concrete(v) is not None and xp is np else jnp
-    u, v = xp.asarray(u, float), xp.asarray(v, float)
-    if n != n_rec:  # a longer duration: the wall holds its last position; shorter: truncated
-        pad = max(0, n - n_rec)
-        u = xp.pad(u, (0, pad), mode="edge")[:n]
-        v = xp.pad(v, (0, pad))[:n]
-    return u, v
-
-
-def _is_array_pair(x):
-    if not (isinstance(x, tuple) and len(x) == 2):
-        return False
-    return all(isinstance(a, (np.ndarray, jax.Array)) for a in x)
-
-
 def _simulate_assembly(
     assembly, motion, *, mode, gap, wall_motion, phi_deg, support_motion, storey, **kw
 ):
-    """``simulate_dem`` on an :class:`Assembly`: :func:`rockjax.simulate_assembly` (``mode``
-    and ``gap``: its blocks' back faces on fixed return walls)."""
+    """``simulate_dem`` on an :class:`Assembly`: :func:`rockjax.simulate_assembly` (``mode``,
+    ``gap`` and ``wall_motion``: its blocks' back faces on return walls)."""
     from .multiblock import simulate_assembly  # imports this module: imported at call time
 
-    if wall_motion is not None:
-        raise ValueError(
-            "wall_motion (moving return walls) applies to a single rj.Block; an Assembly's "
-            "return walls (mode='one_sided') are fixed: drop wall_motion, or run the facade as "
-            "one block."
-        )
     kw.update(mode=mode, gap=gap)
+    if wall_motion is not None:
+        kw["wall_motion"] = wall_motion
     if phi_deg is not None:
         kw["phi_deg"] = phi_deg
     if support_motion is not None or storey is not None:

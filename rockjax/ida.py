@@ -7,8 +7,10 @@ has its return walls driven by the building's response to each scaled record; a 
 several blocks in a building (an :class:`rockjax.Assembly` with ``support_motion=`` a building
 and ``storey=``) stands on its floor and is held by the floor above. The building is linear:
 its response is solved once per record and scaled with the record in every run. The pairs are
-flattened and run in chunks of ``chunk_size``: one ``jit(vmap(...))`` per chunk from a Python
-loop, which bounds the memory and lets a progress bar advance between chunks. The last chunk is padded (with
+flattened and run in chunks of ``chunk_size``: one compiled batch per chunk from a Python
+loop, which bounds the memory and lets a progress bar advance between chunks (DEM runs are
+vmapped; Housner runs go through :func:`rockjax.housner.batch_runs`, one after another on
+CPU). The last chunk is padded (with
 zero-scale runs of the first record, dropped afterwards) to the same shape, so the batch
 compiles once.
 
@@ -65,7 +67,7 @@ from .building import ShearBuilding, wall_top_motion
 from .constants import G
 from .contact import Joint
 from .dem import simulate_dem, stable_dt
-from .housner import P_DT_TARGET, simulate_housner
+from .housner import P_DT_TARGET, batch_runs, simulate_housner
 from .motion import GroundMotion
 from .multiblock import check_storey, simulate_assembly, stable_dt_assembly, storey_supports
 from .relations import e_housner, e_isr
@@ -108,8 +110,9 @@ def ida(
 
     Args:
         block: The block (scalar geometry and material), or an :class:`rockjax.Assembly` (a
-            wall of several blocks; ``model="dem"``, its own supports: ``mode``, ``gap`` and
-            ``wall_motion`` do not apply). For an assembly ``max_d_over_b`` is the peak
+            wall of several blocks; ``model="dem"``; ``mode="one_sided"``, ``gap`` and
+            ``wall_motion`` put its blocks' back faces on return walls, as in
+            :func:`rockjax.simulate_assembly`). For an assembly ``max_d_over_b`` is the peak
             horizontal displacement of the top block's top centre over the bottom block's
             ``b`` (at the record samples), ``max_theta_over_eta`` the largest over the blocks,
             ``collapse`` the assembly's collapse rule (:func:`rockjax.simulate_assembly`).
@@ -150,7 +153,8 @@ def ida(
             (:class:`rockjax.ThreeBranchLaw`, e.g. ``rj.fit_three_branch(rj.pushover(block)).law``).
         wall_motion: One-sided only: a :class:`rockjax.ShearBuilding` whose response to each
             scaled record moves the facade's return walls (``wall_motion=`` of the
-            simulators); its periods are in ``attrs["building_periods"]``.
+            simulators; taken at the block's height, or an assembly's whole height, and not
+            with ``support_motion``); its periods are in ``attrs["building_periods"]``.
         support_motion: An :class:`rockjax.Assembly` only: the :class:`rockjax.ShearBuilding`
             whose storey ``storey`` the wall spans (:func:`rockjax.simulate_assembly`): its
             base on floor ``storey - 1`` (0 the ground), its top restraint held by floor
@@ -229,11 +233,21 @@ def run_config(
     check_choice("model", model, MODELS)
     check_choice("mode", mode, MODES)
     if isinstance(block, Assembly):
-        if model != "dem" or mode != "two_sided" or float(gap) != 0.0 or wall_motion is not None:
+        if model != "dem":
             raise ValueError(
-                "an Assembly runs with model='dem' only, with its own supports (its top "
-                "restraint and gap are part of the Assembly): leave mode, gap and wall_motion "
-                f"at their defaults; got model={model!r}, mode={mode!r}, gap={gap}."
+                f"an Assembly runs with model='dem' only; got model={model!r}. Pass "
+                "model='dem' with beta=..."
+            )
+        if mode == "two_sided" and float(gap) != 0.0:
+            raise ValueError(
+                f"gap={gap} m is the distance to the return walls of a facade and needs "
+                "mode='one_sided'; the top restraint's clearance is the Assembly's own: "
+                "rj.Assembly.stack(blocks, top='restrained', gap=...)."
+            )
+        if wall_motion is not None and support_motion is not None:
+            raise ValueError(
+                "wall_motion moves an Assembly's return walls relative to the ground; with "
+                "support_motion (a wall standing in a building) give one or the other."
             )
     else:
         block = _scalar_block(block)
@@ -284,7 +298,7 @@ def run_config(
                 f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
             )
         if isinstance(block, Assembly):
-            dt_bound = stable_dt_assembly(block, beta, joint=joint)
+            dt_bound = stable_dt_assembly(block, beta, joint=joint, mode=mode)
         else:
             dt_bound = stable_dt(block, beta, mode=mode, gap=gap, joint=joint)
         e_used = None
@@ -553,7 +567,9 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
             # the building is linear: its wall motion under a scaled record is the scaled
             # wall motion, so it is solved once per record, not in every run
             if g.dt not in walls:
-                walls[g.dt] = _wall_histories(plan.config["wall_motion"], g.ag, g.dt, plan.block.h)
+                # taken at the facade's height: the block's, or the stack's
+                height = plan.block.height if isinstance(plan.block, Assembly) else plan.block.h
+                walls[g.dt] = _wall_histories(plan.config["wall_motion"], g.ag, g.dt, height)
             wall = tuple(place.replicated(w) for w in walls[g.dt])
         support = None
         if plan.config["support_motion"] is not None:
@@ -825,7 +841,7 @@ def _run_chunk(
     dt_rec,
     dt_bound,
 ):
-    """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (vmapped); ``wall``:
+    """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (batched); ``wall``:
     None, or the return wall's ``(u_top, v_top)`` per record at scale 1, scaled likewise;
     ``support``: None, or an assembly's base acceleration (and top restraint's ``(u, v)``) per
     record at scale 1 (:func:`_support_histories`), scaled likewise."""
@@ -839,8 +855,18 @@ def _run_chunk(
                 motion = GroundMotion(ag=s * support[0][i], dt=dt_rec, ag_v=motion.ag_v)
                 if len(support) == 3:
                     kw["support_motion"] = (s * support[1][i], s * support[2][i])
+            if wall_motion is not None:
+                kw["wall_motion"] = wall_motion
             r = simulate_assembly(
-                block, motion, beta=beta, dt=dt_bound, joint=joint, throw=False, **kw
+                block,
+                motion,
+                beta=beta,
+                mode=mode,
+                gap=gap,
+                dt=dt_bound,
+                joint=joint,
+                throw=False,
+                **kw,
             )
             top = block.blocks[-1]
             d = r.x[:, -1] - block.x_offset[-1] + 0.5 * top.h * jnp.sin(r.theta[:, -1])
@@ -878,4 +904,6 @@ def _run_chunk(
             "status": r.status.astype(jnp.int32),
         }
 
-    return jax.vmap(one)(rec_idx, scale)
+    if model == "dem" or isinstance(block, Assembly):
+        return jax.vmap(one)(rec_idx, scale)
+    return batch_runs(one, rec_idx, scale)  # on CPU one run after another (much faster)

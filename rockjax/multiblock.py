@@ -37,7 +37,9 @@ from ._checks import (
     check_nonnegative,
     check_positive,
     check_scalar,
+    check_series_pair,
     concrete,
+    is_array_pair,
 )
 from .assembly import Assembly
 from .block import Block
@@ -68,6 +70,7 @@ from .response import (
     STATUS_OK,
     STATUS_UNSTABLE,
 )
+from .walls import wall_arrays, wall_line, wall_pivot, wall_rise
 
 SAVE_OPTIONS = ("energy",)
 
@@ -155,6 +158,10 @@ class AssemblyResponse(eqx.Module):
         energy: Total mechanical energy [J] (kinetic + gravity + overburden + contact springs),
             or None when not requested.
         dt: The time step used [s].
+        work_wall: With a moving return wall (``wall_motion``) and ``save=("energy",)``: the
+            work done on the blocks by the wall since ``t = 0`` [J], so that
+            ``energy - work_wall`` is conserved without damping, slip or ground motion;
+            zeros for a fixed wall; else None.
     """
 
     t: Float[Array, " time"]
@@ -168,6 +175,7 @@ class AssemblyResponse(eqx.Module):
     eta: Float[Array, " block"]
     energy: Float[Array, " time"] | None
     dt: Float[Array, ""]
+    work_wall: Float[Array, " time"] | None = None
 
 
 # ----------------------------------------------------------------------------- parameters
@@ -508,23 +516,49 @@ def _pair_kinematics(p: AssemblyParams, st: AssemblyState, k: int):
     return kin, e1, e2, (x_rel, y_rel)
 
 
-def _wall_kinematics(p: AssemblyParams, st: AssemblyState, k: int):
-    """The back face of block ``k`` against the fixed return wall, as :func:`_pair_kinematics`
-    gives a joint: the point ``(-b_k/2, t)`` (``t`` up the face) penetrates the wall line
-    ``x = x0_k - b_k/2 - gap`` (the block's back face at rest, ``gap`` behind it) by
-    ``delta = x_wall - x``; the wall's normal is ``+x``, its tangent ``+y`` (the slip is the
-    point's vertical velocity), as on the back face of :func:`rockjax.simulate_dem`'s facade."""
+def _wall_kinematics(p: AssemblyParams, st: AssemblyState, k: int, motion=None):
+    """The back face of block ``k`` against the return wall, as :func:`_pair_kinematics`
+    gives a joint: the point ``(-b_k/2, t)`` (``t`` up the face) penetrates the wall line by
+    ``delta``; the wall's normal is ``+x``, its tangent ``+y`` (the slip is the point's
+    vertical velocity less the wall's), as on the back face of :func:`rockjax.simulate_dem`'s
+    facade. ``kin(t)`` returns ``(rx, ry, x_pt, y_pt, delta, delta_dot, slip)``.
+
+    A fixed wall (``motion`` None) is the line ``x = x0_k - b_k/2 - gap`` (the block's back
+    face at rest, ``gap`` behind it), ``delta = x_wall - x``. A moving wall (``motion =
+    (u_top, v_top)`` [m, m/s] at the stack's height ``H``) is those lines turned rigidly to
+    ``theta_w = u_top / H`` about block 0's toe ``(x0_0 + b_0/2 - gap, 0)`` (its heel for
+    ``theta_w < 0``): :func:`rockjax.walls.wall_line`, whose line ``x = x0 + slope y`` gives
+    ``delta = x0 + slope y - x``. The last value returned is then ``(slope, x0', slope',
+    x_pivot, theta_w')`` (None for a fixed wall)."""
     c, s, x, y = st.c[k], st.s[k], st.x[k], st.y[k]
     vx, vy, w = st.vx[k], st.vy[k], st.w[k]
     hb = 0.5 * p.b[k]
     x_wall = p.x0[k] - hb - p.wall_gap
+    if motion is None:
 
-    def kin(t):
+        def kin(t):
+            rx = t * s - hb * c
+            ry = t * c + hb * s
+            return rx, ry, x + rx, y + ry, x_wall - (x + rx), -(vx + w * ry), vy - w * rx
+
+        return kin, (0.0, 1.0), (1.0, 0.0), None, None
+    height = jnp.sum(p.h)
+    theta_w, rate = motion[0] / height, motion[1] / height
+    toe = p.x0[0] + 0.5 * p.b[0] - p.wall_gap
+    heel = p.x0[0] - 0.5 * p.b[0] - p.wall_gap
+    x_pivot = wall_pivot(theta_w, toe, heel)
+    x0, slope, x0_dot, slope_dot = wall_line(x_wall, x_pivot - x_wall, theta_w, rate)
+
+    def kin_moving(t):
         rx = t * s - hb * c
         ry = t * c + hb * s
-        return rx, ry, x + rx, y + ry, x_wall - (x + rx), -(vx + w * ry), vy - w * rx
+        x_pt, y_pt = x + rx, y + ry
+        xd, yd = vx + w * ry, vy - w * rx
+        delta = x0 + slope * y_pt - x_pt
+        delta_dot = -xd + x0_dot + slope_dot * y_pt + slope * yd
+        return rx, ry, x_pt, y_pt, delta, delta_dot, yd - wall_rise(x_pivot, rate, x_pt)
 
-    return kin, (0.0, 1.0), (1.0, 0.0), None
+    return kin_moving, (0.0, 1.0), (1.0, 0.0), None, (slope, x0_dot, slope_dot, x_pivot, rate)
 
 
 def _quadratic_c(m0, m1, m2, p0, p1, q0, q1):
@@ -542,15 +576,18 @@ def _quadratic_c(m0, m1, m2, p0, p1, q0, q1):
     ]
 
 
-def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = False):
+def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = False, motion=None):
     """Forces of interface ``k`` (integrated face law or point sub-contacts), or with ``wall``
-    of block ``k``'s back face on the return wall (a fixed body, as the ground).
+    of block ``k``'s back face on the return wall (a body moved by ``motion``, see
+    :func:`_wall_kinematics`; None: fixed, as the ground).
 
-    Returns ``(F_u, F_l, C_uu, C_ll, C_ul, fs_new, fn)``: generalised forces ``(Fx, Fy, M)`` on
-    the upper and lower block (``F_l`` None for the ground and the wall), the dashpot matrix
-    blocks, the new shear springs and the total normal force [N]."""
+    Returns ``(F_u, F_l, C_uu, C_ll, C_ul, fs_new, fn, power)``: generalised forces
+    ``(Fx, Fy, M)`` on the upper and lower block (``F_l`` None for the ground and the wall),
+    the dashpot matrix blocks, the new shear springs, the total normal force [N] and the
+    power of a moving wall on the block [W] (0 otherwise)."""
+    line = None
     if wall:
-        kin, e1, e2, rel = _wall_kinematics(p, st, k)
+        kin, e1, e2, rel, line = _wall_kinematics(p, st, k, motion)
         lo, hi, hist = -0.5 * p.h[k], 0.5 * p.h[k], st.fs_wall[k]
     else:
         kin, e1, e2, rel = _pair_kinematics(p, st, k)
@@ -658,8 +695,13 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         f_s, fs_mom_tau = fs_tot, fs_tau
         fs_new = tuple(fs_pts)
     ft = f_s - beta * ks_c * v0
-    fx = _plus(_mul(fn, e2[0]), _mul(ft, e1[0]))
-    fy = _plus(_mul(fn, e2[1]), _mul(ft, e1[1]))
+    # a moving wall's normal force acts along its normal (1, -slope) (not normalised: fn is
+    # the horizontal component, as in rockjax.simulate_dem); the dashpot matrix keeps the
+    # fixed wall's rows, as simulate_dem's does
+    e2_f = e2 if line is None else (1.0, -line[0])
+    an_f = an_u if line is None else [arms(e2_f, end[0:2]) for end in ends]
+    fx = _plus(_mul(fn, e2_f[0]), _mul(ft, e1[0]))
+    fy = _plus(_mul(fn, e2_f[1]), _mul(ft, e1[1]))
 
     def moment(an, as_):
         # int f arm_n + shear spring force arm_s - shear dashpot arm_s, arms affine in tau
@@ -672,7 +714,7 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
             - beta * ks_c * (as_[0] * v0 + ds * v1)
         )
 
-    f_u = (fx, fy, moment(an_u, as_u))
+    f_u = (fx, fy, moment(an_f, as_u))
     cn, cs = beta * kn_c, beta * ks_c
     # dashpot rows: upper (e, arm_u), lower -(e, arm_l); affine in tau
     pn0 = (e2[0], e2[1], an_u[0])
@@ -684,8 +726,19 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         _scale(cs, _quadratic_c(s0, s1, s2, ps0, ps1, ps0, ps1)),
     )
     fn_out = fn
+    power = 0.0
+    if line is not None:
+        _, x0_dot, slope_dot, x_pivot, rate = line
+        # the line moves at x0' + slope' y_pt under the normal force (y_pt affine in tau:
+        # int f y_pt = y_lo fn + (y_hi - y_lo) int f tau); the wall's material rises at
+        # rate (x_pivot - x_pt) under the shear force (int f_t tau: the shear's moment sums)
+        y_lo, dy = ends[0][3], ends[1][3] - ends[0][3]
+        x_lo, dx = ends[0][2], ends[1][2] - ends[0][2]
+        ft_tau = fs_mom_tau - beta * ks_c * v1
+        power = x0_dot * fn + slope_dot * (y_lo * fn + dy * fn1)
+        power = power + rate * ((x_pivot - x_lo) * ft - dx * ft_tau)
     if ground:
-        return f_u, None, c_uu, None, None, fs_new, fn_out
+        return f_u, None, c_uu, None, None, fs_new, fn_out, power
     # the lower body: the opposite forces, with arms shifted by X_u - X_l, a constant, so the
     # lower rows of the dashpot are the upper ones plus a constant in the moment entry
     x_rel, y_rel = rel
@@ -707,7 +760,7 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         ll[2][2] = _plus(ll[2][2], _mul(_mul(kappa, kappa), m0))
         c_ll = _add(c_ll, _scale(c_, ll))
         c_ul = _add(c_ul, _scale(c_, ul))
-    return f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn_out
+    return f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn_out, power
 
 
 def _scale(a, m):
@@ -752,7 +805,9 @@ def _top(p: AssemblyParams, st: AssemblyState, dt, top_motion=None):
     return (fx, fy, mom), cmat
 
 
-def step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load=None, top_motion=None):
+def step(
+    p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load=None, top_motion=None, wall=None
+):
     """One central-difference step of the assembly with centred dashpots (the scheme of
     :mod:`rockjax.dem`: ``(M + dt/2 C) a_n = F``, solved by block elimination).
 
@@ -766,18 +821,27 @@ def step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load=None, top_m
             the centroid, clockwise moment), or ``None``.
         top_motion: Optional ``(u, v)``: the top restraint's horizontal displacement [m] and
             velocity [m/s] relative to the base (a floor above the base floor), or ``None``.
+        wall: Optional ``(u_top, v_top)``: a moving return wall's displacement [m] and
+            velocity [m/s] at the stack's height relative to the base (one-sided ``p``), or
+            ``None`` for a fixed wall.
 
     Returns:
         The state at ``n + 1`` and the accelerations ``[[ax, ay, alpha], ...]`` per block at
         step ``n`` [m/s^2, rad/s^2] (relative to the base).
     """
+    new, acc, _ = _step(p, st, ag, ag_v, dt, load=load, top_motion=top_motion, wall=wall)
+    return new, acc
+
+
+def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load, top_motion, wall):
+    """:func:`step`, also returning the power of a moving return wall on the blocks [W]."""
     n = p.n
     force = [[0.0, 0.0, 0.0] for _ in range(n)]
     cdiag = [[[0.0] * 3 for _ in range(3)] for _ in range(n)]
     clow = [None] * n
     fs_all, fn_all = [], []
     for k in range(n):
-        f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn = _interface(p, st, k, dt)
+        f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn, _ = _interface(p, st, k, dt)
         fs_all.append(fs_new)
         fn_all.append(fn)
         force[k] = [_plus(force[k][i], f_u[i]) for i in range(3)]
@@ -787,9 +851,11 @@ def step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load=None, top_m
             cdiag[k - 1] = _add(cdiag[k - 1], c_ll)
             clow[k] = c_ul
     fs_wall = []
+    power = 0.0
     if p.one_sided:  # a static choice: walls without return walls run none of this
         for k in range(n):
-            f_w, _, c_w, _, _, fs_new, _ = _interface(p, st, k, dt, wall=True)
+            f_w, _, c_w, _, _, fs_new, _, pw = _interface(p, st, k, dt, wall=True, motion=wall)
+            power = power + pw
             fs_wall.append(fs_new)
             force[k] = [_plus(force[k][i], f_w[i]) for i in range(3)]
             cdiag[k] = _add(cdiag[k], c_w)
@@ -836,7 +902,7 @@ def step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load=None, top_m
     out = AssemblyState(
         **{key: tuple(v) for key, v in new.items()}, fs=tuple(fs_all), fs_wall=tuple(fs_wall)
     )
-    return out, acc
+    return out, acc, power
 
 
 # ----------------------------------------------------------------------------- energy, collapse
@@ -868,9 +934,9 @@ def _face_energy(p: AssemblyParams, k: int, kin, lo, hi, hist):
     return e
 
 
-def _energy(p: AssemblyParams, st: AssemblyState, vel):
+def _energy(p: AssemblyParams, st: AssemblyState, vel, wall=None):
     """Kinetic + gravity + overburden + spring energy [J] (springs integrated exactly; the
-    return walls' too)."""
+    return walls' too, moved by ``wall = (u_top, v_top)`` [m, m/s] or fixed)."""
     e = 0.0
     for k in range(p.n):
         vx, vy, w = vel[k]
@@ -879,7 +945,7 @@ def _energy(p: AssemblyParams, st: AssemblyState, vel):
         kin = _pair_kinematics(p, st, k)[0]
         e = e + _face_energy(p, k, kin, p.lo[k], p.hi[k], st.fs[k])
         if p.one_sided:
-            kin = _wall_kinematics(p, st, k)[0]
+            kin = _wall_kinematics(p, st, k, wall)[0]
             e = e + _face_energy(p, k, kin, -0.5 * p.h[k], 0.5 * p.h[k], st.fs_wall[k])
     k = p.n - 1
     qx = st.x[k] + 0.5 * p.h[k] * st.s[k]
@@ -1075,9 +1141,22 @@ def _hinge_pose(assembly: Assembly, p: AssemblyParams, s0, joint: Joint) -> Asse
 
 
 @eqx.filter_jit
-def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int, save, throw, top):
+def _run(
+    p: AssemblyParams,
+    st0: AssemblyState,
+    ag,
+    ag_v,
+    dt,
+    dt_out,
+    n_in: int,
+    save,
+    throw,
+    top,
+    wall=None,
+):
     """``top``: ``None``, or the top restraint's displacement [m] and velocity [m/s] relative
-    to the base at the samples, linear between them as ``ag``."""
+    to the base at the samples, linear between them as ``ag``; ``wall``: ``None`` (fixed
+    return walls, or none), or a moving wall's ``(u_top, v_top)`` [m, m/s] likewise."""
 
     def nxt(a):
         return jnp.concatenate([a[1:], a[-1:]])
@@ -1088,6 +1167,9 @@ def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int,
         top_xs = (zeros, zeros, zeros, zeros)
     else:
         top_xs = (top[0], nxt(top[0]), top[1], nxt(top[1]))
+    moving = wall is not None
+    work = moving and "energy" in save
+    wall_xs = () if not moving else (wall[0], nxt(wall[0]), wall[1], nxt(wall[1]))
     w_max = omega_max(p)
     unstable = dt > 2.0 / w_max * (1.0 + 1e-9)
     positive = jnp.concatenate([p.m, p.I_c, p.b, p.h, p.kn_line, p.hi - p.lo, p.tan_phi[None]])
@@ -1105,28 +1187,43 @@ def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int,
     )
     if p.one_sided:
         bad_input = bad_input | ~(jnp.isfinite(p.wall_gap) & (p.wall_gap >= 0))
+    if moving:
+        bad_input = bad_input | ~jnp.all(jnp.stack([jnp.all(jnp.isfinite(a)) for a in wall]))
 
     def outer(carry, xs):
-        st, overturned, status = carry
-        a0, a1, v0, v1, u0, u1, w0, w1 = xs
+        st, overturned, status = carry[:3]
+        a0, a1, v0, v1, u0, u1, w0, w1 = xs[:8]
         da, dv = (a1 - a0) / n_in, (v1 - v0) / n_in
         du, dw = (u1 - u0) / n_in, (w1 - w0) / n_in
         zero = jnp.zeros_like(a0)
+        if moving:
+            p0, p1, q0, q1 = xs[8:]
+            dp, dq = (p1 - p0) / n_in, (q1 - q0) / n_in
 
         # one scan over the n_in substeps (one copy of the step in the program); the
-        # accelerations of the first substep, at the sample time, travel in the carry
+        # accelerations of the first substep, at the sample time, travel in the carry (with
+        # a moving wall, its power at the sample time and its work summed over the steps)
         def inner(c, _):
-            s_, j, first = c
+            s_, j, first = c[:3]
             tm = None if top is None else (u0 + j * du, w0 + j * dw)
-            s_, acc = step(p, s_, a0 + j * da, v0 + j * dv, dt, top_motion=tm)
+            wm = (p0 + j * dp, q0 + j * dq) if moving else None
+            s_, acc, power = _step(
+                p, s_, a0 + j * da, v0 + j * dv, dt, load=None, top_motion=tm, wall=wm
+            )
             # scalars, not a stacked vector: XLA:CPU would build a vector element by element,
             # each element's fusion recomputing the step
             flat = [v for row in acc for v in row]
+            if work:
+                flat.append(power)
             first = tuple(jnp.where(j == 0.0, v, f) for v, f in zip(flat, first))
+            if work:
+                return (s_, j + 1.0, first, c[3] + dt * power), None
             return (s_, j + 1.0, first), None
 
-        first0 = tuple(zero for _ in range(3 * p.n))
-        (new, _, first), _ = jax.lax.scan(inner, (st, zero, first0), length=n_in)
+        first0 = tuple(zero for _ in range(3 * p.n + (1 if work else 0)))
+        init = (st, zero, first0) + ((carry[3],) if work else ())
+        done, _ = jax.lax.scan(inner, init, length=n_in)
+        new, first = done[0], done[2]
         vel = [
             (
                 st.vx[k] + 0.5 * dt * first[3 * k],
@@ -1142,7 +1239,11 @@ def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int,
             "y": jnp.stack(st.y, axis=-1),
         }
         if "energy" in save:
-            out["energy"] = _energy(p, st, vel)
+            out["energy"] = _energy(p, st, vel, (p0, q0) if moving else None)
+        if work:
+            # as rockjax.simulate_dem: the steps' power x dt summed, half a step past the
+            # sample (the constant half step of the first sample is taken off at the end)
+            out["work_wall"] = carry[3] + 0.5 * dt * first[-1]
         over = overturned | _collapsed(p, new)
         leaves = jax.tree_util.tree_leaves(new)
         bad = ~jnp.all(jnp.stack([jnp.all(jnp.isfinite(v)) for v in leaves]))
@@ -1153,13 +1254,21 @@ def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int,
         )
         keep = overturned | (status != STATUS_OK)
         new = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b), st, new)
+        if work:
+            return (new, over, status, jnp.where(keep, carry[3], done[3])), out
         return (new, over, status), out
 
     outer = jax.checkpoint(outer, prevent_cse=False)
     status0 = jnp.where(bad_input, STATUS_BAD_INPUT, STATUS_OK)
-    (st, overturned, status), out = jax.lax.scan(
-        outer, (st0, jnp.zeros((), bool), status0), (ag, ag_next, ag_v, agv_next, *top_xs)
+    carry0 = (st0, jnp.zeros((), bool), status0) + ((jnp.zeros(()),) if work else ())
+    (st, overturned, status, *_), out = jax.lax.scan(
+        outer, carry0, (ag, ag_next, ag_v, agv_next, *top_xs, *wall_xs)
     )
+    work_wall = None
+    if work:
+        work_wall = out["work_wall"] - out["work_wall"][0]
+    elif p.one_sided and "energy" in save:  # a fixed wall does no work
+        work_wall = jnp.zeros_like(out["energy"])
     if throw:
         for code in (STATUS_BAD_INPUT, STATUS_UNSTABLE, STATUS_NONFINITE):
             msg = (
@@ -1179,6 +1288,7 @@ def _run(p: AssemblyParams, st0: AssemblyState, ag, ag_v, dt, dt_out, n_in: int,
         eta=p.eta,
         energy=out.get("energy"),
         dt=jnp.asarray(dt, float),
+        work_wall=work_wall,
     )
 
 
@@ -1201,6 +1311,7 @@ def simulate_assembly(
     throw: bool = True,
     support_motion: ShearBuilding | tuple | None = None,
     storey: int = 1,
+    wall_motion=None,
 ) -> AssemblyResponse:
     """Simulate an assembly of rigid blocks on penalty joints under a ground motion and/or a
     free release (the DEM of :func:`rockjax.simulate_dem`, block by block).
@@ -1213,8 +1324,11 @@ def simulate_assembly(
     linear between samples), docs/assemblies.md "Supports in a building".
 
     A facade (``mode="one_sided"``) leans on return walls: every block's back face (its -x
-    face) meets a fixed wall ``gap`` behind it with the joint's contact law, as the back face
-    of :func:`rockjax.simulate_dem`'s facade (docs/assemblies.md, "Return walls").
+    face) meets a wall ``gap`` behind it with the joint's contact law, as the back face of
+    :func:`rockjax.simulate_dem`'s facade (docs/assemblies.md, "Return walls"). The walls are
+    fixed, or move with ``wall_motion`` as one rigid body: the line of the back faces at rest
+    turned to ``theta_w = u_top / H`` (``H`` the stack's height) about block 0's toe (its heel
+    for ``theta_w < 0``), as :func:`rockjax.simulate_dem` turns a block's wall.
 
     Args:
         assembly: The :class:`rockjax.assembly.Assembly`.
@@ -1253,10 +1367,19 @@ def simulate_assembly(
         storey: The storey the wall stands in (1-based, with ``support_motion``): base on
             floor ``storey - 1``, top restraint at floor ``storey``; ``n_storeys + 1`` for a
             wall on the roof (free top only).
+        wall_motion: Return walls that move relative to the base (``mode="one_sided"``, on the
+            ground: not with ``support_motion``; None: fixed): a pair ``(u_top, v_top)`` of
+            arrays [m], [m/s] with one value per record sample (the walls' displacement and
+            velocity at the stack's height ``H``, ``u_top > 0`` toward the facade;
+            traceable), or what :func:`rockjax.wall_top_motion` accepts (a
+            ``ShearBuilding``, the walls' absolute acceleration as a ``GroundMotion``, or
+            ``(height, GroundMotion)`` pairs), taken at ``H``; as ``wall_motion`` of
+            :func:`rockjax.simulate_dem`.
 
     Returns:
         An :class:`AssemblyResponse` with per-block ``theta``, ``x``, ``y`` (time x block);
-        ``x`` relative to the base (the base floor in a building).
+        ``x`` relative to the base (the base floor in a building); with ``"energy"`` saved on
+        return walls, ``work_wall`` (the walls' work [J]).
 
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
@@ -1279,7 +1402,23 @@ def simulate_assembly(
         phi_deg = 50.0 if mode == "two_sided" else 30.0
     p = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg, mode=mode, gap=gap)
     _check_theta0(theta0, assembly, mode)
+    if wall_motion is not None and mode != "one_sided":
+        raise ValueError(
+            f"wall_motion (moving return walls) needs mode='one_sided' (a facade against its "
+            f"return walls); got mode={mode!r}. Pass mode='one_sided', or drop wall_motion."
+        )
+    if wall_motion is not None and support_motion is not None:
+        raise ValueError(
+            "wall_motion moves the return walls relative to the ground; with support_motion "
+            "(a wall standing in a building) give one or the other: the walls' motion "
+            "relative to the base floor as wall_motion=(u_top, v_top) with the floor's "
+            "motion as motion, or drop wall_motion."
+        )
     ag, ag_v, dt_out = prepare_motion(motion, duration, save_dt)
+    wall = None
+    if wall_motion is not None:  # fixed walls take the path without wall arrays
+        n_record = None if motion is None else np.shape(motion.ag)[0]
+        wall = wall_arrays(wall_motion, motion, assembly.height, ag, dt_out, n_record)
     ag, top = _in_building(support_motion, storey, assembly, motion, ag, dt_out)
     accuracy = _check_accuracy(accuracy, joint, mode)
     limit, dt_default = _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, mode)
@@ -1299,7 +1438,7 @@ def simulate_assembly(
     st0 = initial_assembly_state(assembly, p, theta0, joint)
     # the steps as arrays: traced, so a new step does not recompile (n_in is static)
     return _run(
-        p, st0, ag, ag_v, np.asarray(step), np.asarray(dt_out), n_in, tuple(save), throw, top
+        p, st0, ag, ag_v, np.asarray(step), np.asarray(dt_out), n_in, tuple(save), throw, top, wall
     )
 
 
@@ -1314,7 +1453,7 @@ def _in_building(building, storey, assembly: Assembly, motion, ag, dt_out):
                 "that carry the wall); leave storey=1 for a wall on the ground."
             )
         return ag, None
-    if _is_array_pair(building):
+    if is_array_pair(building):
         return ag, _restraint_arrays(building, storey, assembly, ag)
     if not isinstance(building, ShearBuilding):
         raise ValueError(
@@ -1364,14 +1503,6 @@ def storey_supports(building: ShearBuilding, ag, dt, storey: int, restrained: bo
     return ag, (u, v)
 
 
-def _is_array_pair(x) -> bool:
-    return (
-        isinstance(x, tuple)
-        and len(x) == 2
-        and all(isinstance(a, (np.ndarray, jax.Array)) for a in x)
-    )
-
-
 def _restraint_arrays(pair, storey, assembly: Assembly, ag):
     """The top restraint's ``(u [m], v [m/s])`` relative to the base, given as arrays at the
     run's samples (``support_motion=(u, v)``), checked."""
@@ -1387,20 +1518,14 @@ def _restraint_arrays(pair, storey, assembly: Assembly, ag):
             "top='restrained'; got top='free'. Drop support_motion for a free top (the base "
             "is motion)."
         )
-    n = ag.shape[0]
-    out = []
-    for name, a in zip(("u", "v"), pair):
-        if np.shape(a) != (n,):
-            raise ValueError(
-                f"support_motion: {name} [m or m/s] must have one value per sample of the run, "
-                f"shape ({n},); got shape {np.shape(a)}. Sample it at motion's dt over the "
-                "run's duration (pad the record first)."
-            )
-        a_c = concrete(a)
-        if a_c is not None and not np.all(np.isfinite(a_c)):
-            raise ValueError(f"support_motion: {name} [m or m/s] contains non-finite values.")
-        out.append(jnp.asarray(a, float))
-    return tuple(out)
+    check_series_pair(
+        "support_motion",
+        ("u [m]", "v [m/s]"),
+        pair,
+        ag.shape[0],
+        "Sample it at motion's dt over the run's duration (pad the record first).",
+    )
+    return tuple(jnp.asarray(a, float) for a in pair)
 
 
 def _check_theta0(theta0, assembly: Assembly, mode: str = "two_sided"):

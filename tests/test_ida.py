@@ -499,6 +499,58 @@ def test_assembly_in_a_building_equals_single_runs():
         assert float(ds.max_d_over_b[0, j]) == pytest.approx(np.max(np.abs(d)) / 0.23, rel=1e-9)
 
 
+def test_assembly_facade_on_moving_walls_equals_single_runs():
+    # Reference: a loop of rj.simulate_dem(facade, record, mode="one_sided", gap=...,
+    # wall_motion=bldg) on the record zero-padded to the IDA's length, each solving the
+    # building for its own scaled record at the stack's height; the IDA solves it once per
+    # record and scales it (the building is linear), so the runs differ by round-off only.
+    blk = rj.Block(b=0.23, h=1.5)
+    facade = rj.Assembly.stack([blk, blk])
+    bldg = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.2, damping=0.05)
+    kw = dict(beta=STRIP_BETA, mode="one_sided", gap=1e-3)
+    ds = rj.ida(
+        facade, _strip_records(), STRIP_SCALES, tail=0.5, progress=False, wall_motion=bldg, **kw
+    )
+    assert ds.attrs["mode"] == "one_sided" and ds.attrs["gap"] == 1e-3
+    np.testing.assert_allclose(ds.attrs["building_periods"], np.asarray(bldg.periods))
+    t_end = float(ds.attrs["t_end"])
+    dt = rj.stable_dt_assembly(facade, STRIP_BETA, mode="one_sided")
+    for i, rec in enumerate(_strip_records()):
+        n = int(round(t_end / rec.dt)) + 1
+        for j, s in enumerate(STRIP_SCALES):
+            ag = np.zeros(n)
+            ag[: rec.n] = s * np.asarray(rec.ag)
+            r = rj.simulate_dem(
+                facade, rj.GroundMotion(ag=ag, dt=rec.dt), dt=dt, wall_motion=bldg, **kw
+            )
+            assert int(r.status) == 0
+            theta = float(np.max(np.asarray(r.theta_max) / np.asarray(r.eta)))
+            assert theta > 1e-3  # it rocked
+            assert float(ds.max_theta_over_eta[i, j]) == pytest.approx(theta, rel=1e-9)
+            assert bool(ds.collapse[i, j]) == bool(r.overturned)
+            d = np.asarray(r.x[:, -1]) + 0.75 * np.sin(np.asarray(r.theta[:, -1]))
+            d_ida = float(ds.max_d_over_b[i, j])
+            assert d_ida == pytest.approx(np.max(np.abs(d)) / 0.23, rel=1e-9)
+    # the walls' motion matters: still walls (the same compiled run) give another response
+    z = np.zeros(n)
+    still = rj.simulate_dem(
+        facade, rj.GroundMotion(ag=ag, dt=rec.dt), dt=dt, wall_motion=(z, z), **kw
+    )
+    theta_still = float(np.max(np.asarray(still.theta_max) / np.asarray(still.eta)))
+    assert abs(theta_still / float(ds.max_theta_over_eta[-1, -1]) - 1.0) > 0.01
+
+
+def test_assembly_facade_ida_errors(user_view):
+    bldg = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.3)
+    for kwargs, match in [
+        (dict(gap=1e-3), "needs mode='one_sided'"),
+        (dict(wall_motion=bldg), "one_sided"),
+        (dict(mode="one_sided", wall_motion=bldg, support_motion=bldg), "one or the other"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            rj.ida(_strip(), _pulses(), [1.0], beta=1e-3, progress=False, **kwargs)
+
+
 RIGID_RTOL = 1e-3
 """A 0.005 s building under 0.5-0.8 s pulses: floor motions differ from the ground's by about
 (0.005 / 0.5)^2 = 1e-4 (docs/assemblies.md measured 6e-5 of the peak rotation)."""
