@@ -264,7 +264,9 @@ def run_chunk(
         ok = r.status == 0
         return r.overturned & ok, r.status.astype(jnp.int32), r.theta_max / r.eta
 
-    return jax.vmap(one)(rec_idx, scale)
+    if model == "dem":
+        return jax.vmap(one)(rec_idx, scale)
+    return rj.housner.batch_runs(one, rec_idx, scale)  # one run after another on CPU
 
 
 def run_pairs(block, model, mode, beta, group: Group, ag, wall, rows, scales, chunk, law=None):
