@@ -623,3 +623,24 @@ def test_a_huge_duration_with_a_record_is_refused(block):
 def test_an_array_for_the_motion_asks_for_a_ground_motion(block, user_view):
     with pytest.raises(ValueError, match=r"motion must be a rockjax GroundMotion.*GroundMotion\("):
         rj.simulate_housner(block, np.zeros(100))
+
+
+def test_batch_runs_equals_a_loop_and_runs_one_after_another_on_cpu(block):
+    # Reference: each run on its own (eager simulate_housner). batch_runs must give the same
+    # answers, through lax.map (a scan in the program) on CPU and vmap elsewhere.
+    dt = 0.01
+    base = np.asarray(_pulse(400, dt).ag)
+    scales = jnp.array([0.8, 1.0, 1.5])
+
+    def one(s):
+        r = rj.simulate_housner(block, rj.GroundMotion(ag=s * base, dt=dt), throw=False)
+        return r.theta_max, r.extras["n_impacts"][-1]
+
+    got = jax.jit(lambda xs: rj.housner.batch_runs(one, xs))(scales)
+    for k, s in enumerate(np.asarray(scales)):
+        want = one(float(s))
+        np.testing.assert_allclose(got[0][k], want[0], rtol=1e-12, atol=0)
+        assert int(got[1][k]) == int(want[1])
+    assert int(got[1][-1]) >= 1  # it rocks and impacts
+    jaxpr = str(jax.make_jaxpr(lambda xs: rj.housner.batch_runs(one, xs))(scales))
+    assert ("scan" in jaxpr) == (jax.default_backend() == "cpu")
