@@ -13,6 +13,17 @@ PARAPET = dict(b=0.25, h=3.0)  # the paper's 3.00 x 0.250 m geometry
 SQUAT = dict(b=0.2, h=1.5)
 
 
+def smooth_push(amp, period, n, dt):
+    """A return wall's push ``u_top = amp sin^2(pi t / period)`` [m] for one period, then 0
+    (it starts and ends at rest), at ``n`` samples of step ``dt`` [s]; and its exact velocity."""
+    t = np.arange(n) * dt
+    on = t < period
+    w = np.pi / period
+    u = np.where(on, amp * np.sin(w * t) ** 2, 0.0)
+    v = np.where(on, amp * w * np.sin(2 * w * t), 0.0)
+    return u, v
+
+
 def housner_time_to_impact(p, eta, theta0):
     """Time [s] for the nonlinear Housner EOM to fall from rest at theta0 > 0 to theta = 0.
 

@@ -7,6 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import smooth_push
 from scipy.integrate import solve_ivp
 
 import rockjax as rj
@@ -746,13 +747,7 @@ BUILDING = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.2, 
 
 
 def _wall_push(amp, period, n, dt=MOVING_DT):
-    """``u_top = amp sin^2(pi t / period)`` for one period, then 0, and its exact velocity."""
-    t = np.arange(n) * dt
-    on = t < period
-    w = np.pi / period
-    u = np.where(on, amp * np.sin(w * t) ** 2, 0.0)
-    v = np.where(on, amp * w * np.sin(2 * w * t), 0.0)
-    return u, v
+    return smooth_push(amp, period, n, dt)
 
 
 def _quiet(n):

@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import smooth_push
 
 import rockjax as rj
 from rockjax import dem
@@ -36,14 +37,7 @@ def facade():
 
 
 def _smooth_push(amp, period, n, dt=DT_OUT):
-    """``u_top = amp sin^2(pi t / period)`` for one period, then 0 (starts and ends at rest);
-    and its exact velocity."""
-    t = np.arange(n) * dt
-    on = t < period
-    w = np.pi / period
-    u = np.where(on, amp * np.sin(w * t) ** 2, 0.0)
-    v = np.where(on, amp * w * np.sin(2 * w * t), 0.0)
-    return u, v
+    return smooth_push(amp, period, n, dt)
 
 
 def _quiet(n):
