@@ -1323,9 +1323,10 @@ def batch_runs(run, *xs):
     run. Under ``vmap`` every run of the batch goes through every pass that any run needs,
     each operation on a vector of a few elements; XLA:CPU then spends its time launching small
     kernels. One run after another, the loop is scalar code and skips what its own run does
-    not need: measured 5.4x faster for 64 facade runs of 40 s (0.10 s against 0.55 s of CPU
-    time, identical results; docs/benchmarks.md, "Batching Housner on CPU"). The DEM (a scan
-    without such branches) is the other way round and stays with ``vmap``.
+    not need: 4.8x less CPU time for 64 facade runs of 40 s (0.070 s against 0.340 s,
+    identical results; ``benchmarks/bench_housner_batching.py``, docs/benchmarks.md, "Batching
+    on CPU: one run after another"). The DEM (a scan without such branches) is the other way
+    round and stays with ``vmap``.
     """
     if jax.default_backend() == "cpu":
         return jax.lax.map(lambda x: run(*x), xs)
