@@ -1011,16 +1011,8 @@ def initial_assembly_state(
     sink of :func:`rockjax.dem.initial_state`, computed by it for a block of block 0's shape
     and the total weight); each bed joint settles uniformly under the weight above it. The
     return walls (one-sided ``p``) just touch the back faces at ``gap = 0``."""
-    blk0 = assembly.blocks[0]
     weight = sum(b.m for b in assembly.blocks) * G + assembly.top_load
-    proxy = Block(
-        b=blk0.b,
-        h=blk0.h,
-        length=blk0.length,
-        rho=weight / (G * blk0.b * blk0.h * blk0.length),
-        E=blk0.E,
-        nu=blk0.nu,
-    )
+    proxy = _carrying(assembly.blocks[0], weight)
     s0 = initial_state(dem_params(proxy, joint=joint, phi_deg=45.0), theta0)
     if p.restrained and concrete(theta0) != 0.0:
         return _hinge_pose(assembly, p, s0, joint)
@@ -1097,15 +1089,7 @@ def _hinge_pose(assembly: Assembly, p: AssemblyParams, s0, joint: Joint) -> Asse
     x_c = p.x0[1] + side * p.gap
     theta1 = _hinge_angle(theta, x_b, x_c, u1, v1)
     upper = assembly.blocks[1]
-    load = upper.m * G + assembly.top_load
-    proxy = Block(
-        b=upper.b,
-        h=upper.h,
-        length=upper.length,
-        rho=load / (G * upper.b * upper.h * upper.length),
-        E=upper.E,
-        nu=upper.nu,
-    )
+    proxy = _carrying(upper, upper.m * G + assembly.top_load)
     params1 = dem_params(proxy, joint=joint, phi_deg=45.0)
 
     def pose(theta1):
@@ -1526,6 +1510,19 @@ def _restraint_arrays(pair, storey, assembly: Assembly, ag):
         "Sample it at motion's dt over the run's duration (pad the record first).",
     )
     return tuple(jnp.asarray(a, float) for a in pair)
+
+
+def _carrying(blk: Block, weight) -> Block:
+    """A block of ``blk``'s shape and joint whose own weight is ``weight`` [N]: its joint then
+    settles as ``blk``'s under that load (the equilibrium sink of ``dem.initial_state``)."""
+    return Block(
+        b=blk.b,
+        h=blk.h,
+        length=blk.length,
+        rho=weight / (G * blk.b * blk.h * blk.length),
+        E=blk.E,
+        nu=blk.nu,
+    )
 
 
 def _check_theta0(theta0, assembly: Assembly, mode: str = "two_sided"):

@@ -64,6 +64,12 @@ def test_one_block_equals_simulate_dem(joint):
     assert r.theta.dtype == jnp.float64 and r.theta.shape == (PULSE.n, 1)
     scale = float(jnp.max(jnp.abs(ref.theta)))
     assert scale > 0.2 * float(ONE.eta)  # it rocked
+    _assert_equals_single_block(r, ref, scale)
+
+
+def _assert_equals_single_block(r, ref, scale):
+    """A one-block assembly's response ``r`` equals simulate_dem's ``ref`` (theta, x, y,
+    overturning, theta_max) to EQUAL_RTOL of ``scale`` [rad] and of the block's height."""
     assert float(jnp.max(jnp.abs(r.theta[:, 0] - ref.theta))) < EQUAL_RTOL * scale
     for key in ("x", "y"):
         err = float(jnp.max(jnp.abs(getattr(r, key)[:, 0] - ref.extras[key])))
@@ -598,12 +604,7 @@ def test_one_block_facade_equals_simulate_dem(joint):
     assert isinstance(r, rj.AssemblyResponse) and r.theta.dtype == jnp.float64
     scale = float(jnp.max(jnp.abs(ref.theta)))
     assert float(jnp.min(ref.theta)) < -0.5 * FACADE_GAP / float(ONE.h)  # it met the wall
-    assert float(jnp.max(jnp.abs(r.theta[:, 0] - ref.theta))) < EQUAL_RTOL * scale
-    for key in ("x", "y"):
-        err = float(jnp.max(jnp.abs(getattr(r, key)[:, 0] - ref.extras[key])))
-        assert err < EQUAL_RTOL * float(ONE.h), key
-    assert bool(r.overturned) == bool(ref.overturned)
-    assert abs(float(r.theta_max[0]) - float(ref.theta_max)) < EQUAL_RTOL * scale
+    _assert_equals_single_block(r, ref, scale)
 
 
 def test_facade_blocks_stop_at_their_return_walls():
