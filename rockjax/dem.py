@@ -1056,8 +1056,9 @@ def simulate_dem(
         block: The block (geometry and material), or an :class:`rockjax.Assembly` of several
             blocks: that runs :func:`rockjax.simulate_assembly` (per-block ``theta``, ``x``,
             ``y``; ``mode="one_sided"`` and ``gap`` put every block's back face on a return
-            wall, fixed or moving with ``wall_motion``; ``save="forces"`` does not apply) and
-            returns its :class:`rockjax.AssemblyResponse`.
+            wall, fixed or moving with ``wall_motion``; ``save=("forces",)`` records each
+            interface's normal and shear forces) and returns its
+            :class:`rockjax.AssemblyResponse`.
         motion: Ground motion; ``None`` for free rocking (then ``duration`` is required).
         beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1), alpha = 0.
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade with a return wall at -x).
@@ -1284,8 +1285,10 @@ def _simulate_assembly(
         kw["wall_motion"] = wall_motion
     if phi_deg is not None:
         kw["phi_deg"] = phi_deg
-    if support_motion is not None or storey is not None:
-        kw.update(support_motion=support_motion, storey=storey)
+    if support_motion is not None:
+        kw["support_motion"] = support_motion
+    if storey is not None:  # simulate_assembly's default: storey 1
+        kw["storey"] = storey
     return simulate_assembly(assembly, motion, **kw)
 
 

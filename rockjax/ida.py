@@ -69,7 +69,13 @@ from .contact import Joint
 from .dem import simulate_dem, stable_dt
 from .housner import P_DT_TARGET, batch_runs, simulate_housner
 from .motion import GroundMotion
-from .multiblock import check_storey, simulate_assembly, stable_dt_assembly, storey_supports
+from .multiblock import (
+    check_storey,
+    check_walls_in_building,
+    simulate_assembly,
+    stable_dt_assembly,
+    storey_supports,
+)
 from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
@@ -153,8 +159,10 @@ def ida(
             (:class:`rockjax.ThreeBranchLaw`, e.g. ``rj.fit_three_branch(rj.pushover(block)).law``).
         wall_motion: One-sided only: a :class:`rockjax.ShearBuilding` whose response to each
             scaled record moves the facade's return walls (``wall_motion=`` of the
-            simulators; taken at the block's height, or an assembly's whole height, and not
-            with ``support_motion``); its periods are in ``attrs["building_periods"]``.
+            simulators; taken at the block's height, or an assembly's whole height); its
+            periods are in ``attrs["building_periods"]``. With ``support_motion`` (a facade
+            in storey ``storey``), the same building: the walls move with that storey, its
+            drift interpolated linearly in height, solved with the supports once per record.
         support_motion: An :class:`rockjax.Assembly` only: the :class:`rockjax.ShearBuilding`
             whose storey ``storey`` the wall spans (:func:`rockjax.simulate_assembly`): its
             base on floor ``storey - 1`` (0 the ground), its top restraint held by floor
@@ -245,10 +253,15 @@ def run_config(
                 "rj.Assembly.stack(blocks, top='restrained', gap=...)."
             )
         if wall_motion is not None and support_motion is not None:
-            raise ValueError(
-                "wall_motion moves an Assembly's return walls relative to the ground; with "
-                "support_motion (a wall standing in a building) give one or the other."
-            )
+            if not isinstance(wall_motion, ShearBuilding):
+                raise ValueError(
+                    "ida's wall_motion with support_motion must be the same "
+                    "rockjax.ShearBuilding (the return walls move with the storey the facade "
+                    f"stands in); got {type(wall_motion).__name__}. Pass "
+                    "wall_motion=support_motion."
+                )
+            # the same building, not on the roof; storey checked as simulate_assembly does
+            check_walls_in_building(wall_motion, support_motion, storey)
     else:
         block = _scalar_block(block)
     storey = _check_support(block, support_motion, storey)
@@ -563,7 +576,8 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
         ag, ag_v = place.replicated(g.ag), place.replicated(g.ag_v)
         rec_k, scale_k = place.split(local.astype(np.int32)), place.split(plan.scales[j])
         wall = None
-        if plan.config["wall_motion"] is not None:
+        in_building = plan.config["support_motion"] is not None
+        if plan.config["wall_motion"] is not None and not in_building:
             # the building is linear: its wall motion under a scaled record is the scaled
             # wall motion, so it is solved once per record, not in every run
             if g.dt not in walls:
@@ -575,6 +589,9 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
         if plan.config["support_motion"] is not None:
             # the same for a wall of several blocks: its base floor's acceleration and the
             # storey's drift at scale 1, once per record
+            # (and the return walls' motion relative to the base floor, when they move with
+            # the building: the same solve)
+            moving = plan.config["wall_motion"] is not None
             if g.dt not in supports:
                 supports[g.dt] = _support_histories(
                     plan.config["support_motion"],
@@ -582,8 +599,11 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
                     g.dt,
                     plan.config["storey"],
                     plan.block.top == "restrained",
+                    plan.block.height if moving else None,
                 )
             support = tuple(place.replicated(a) for a in supports[g.dt])
+            if moving:
+                support, wall = support[:-2], support[-2:]
         out = _run_chunk(plan.block, ag, ag_v, rec_k, scale_k, wall, support, dt_rec=g.dt, **config)
         out = jax.device_get(out)
         for key in grids:
@@ -807,16 +827,20 @@ def _wall_histories(building, ag, dt: float, height):
 
 
 @eqx.filter_jit
-def _support_histories(building, ag, dt: float, storey: int, restrained: bool):
+def _support_histories(building, ag, dt: float, storey: int, restrained: bool, wall_height=None):
     """The supports of a wall in storey ``storey`` for every record of a group at scale 1,
     each (record, time): the base floor's absolute acceleration [m/s^2] and, for a restrained
     top, the storey's drift [m] and its rate [m/s] (floor ``storey`` less floor ``storey - 1``,
     :meth:`rockjax.ShearBuilding.response`), as :func:`rockjax.simulate_assembly` computes them
-    in a single run."""
+    in a single run; with ``wall_height`` [m], last, the return walls' ``(u_top, v_top)``
+    relative to the base floor at that height (:func:`rockjax.multiblock.storey_supports`)."""
 
     def one(a):
-        base, top = storey_supports(building, a, dt, storey, restrained)
-        return (base,) if top is None else (base, *top)
+        base, top, *walls = storey_supports(
+            building, a, dt, storey, restrained, wall_height=wall_height
+        )
+        out = (base,) if top is None else (base, *top)
+        return out + (tuple(walls[0]) if walls else ())
 
     return jax.vmap(one)(ag)
 

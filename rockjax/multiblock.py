@@ -72,7 +72,7 @@ from .response import (
 )
 from .walls import wall_arrays, wall_line, wall_pivot, wall_rise
 
-SAVE_OPTIONS = ("energy",)
+SAVE_OPTIONS = ("energy", "forces")
 
 _GAUSS = (-1.0 / math.sqrt(3.0), 1.0 / math.sqrt(3.0))
 
@@ -162,6 +162,25 @@ class AssemblyResponse(eqx.Module):
             work done on the blocks by the wall since ``t = 0`` [J], so that
             ``energy - work_wall`` is conserved without damping, slip or ground motion;
             zeros for a fixed wall; else None.
+        normal_forces: With ``save=("forces",)``: the normal force of each interface [N]
+            (``time x interface``; interface 0 the ground joint, ``k`` the bed joint between
+            blocks ``k - 1`` and ``k``), the resultant over the face of springs and dashpots,
+            positive in compression, along the lower body's normal (the ground's: vertical);
+            else None.
+        shear_forces: With ``"forces"``: the shear force of each interface [N] (springs and
+            dashpots), along the lower body's tangent (the ground's: +x), on the upper block;
+            else None.
+        restraint_force: With ``"forces"`` and a restrained top: the top restraint's
+            horizontal force on the top block [N] (positive toward +x); else None.
+        wall_forces: With ``"forces"`` on return walls (``mode="one_sided"``): the normal
+            force of each block's back face on its wall [N] (``time x block``, positive in
+            compression; a moving wall's horizontal component); else None.
+
+    The forces are those of the step taken at each sample (the state at the sample, the
+    dashpots at the lagged half-step velocity, as ``extras["normal_forces"]`` of
+    :func:`rockjax.simulate_dem`); the centred dashpots that move the blocks differ from
+    them by ``dt/2`` times the dashpot matrix times the accelerations (nothing at rest or at
+    ``beta = 0``).
     """
 
     t: Float[Array, " time"]
@@ -176,6 +195,10 @@ class AssemblyResponse(eqx.Module):
     energy: Float[Array, " time"] | None
     dt: Float[Array, ""]
     work_wall: Float[Array, " time"] | None = None
+    normal_forces: Float[Array, "time interface"] | None = None
+    shear_forces: Float[Array, "time interface"] | None = None
+    restraint_force: Float[Array, " time"] | None = None
+    wall_forces: Float[Array, "time block"] | None = None
 
 
 # ----------------------------------------------------------------------------- parameters
@@ -581,10 +604,13 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
     of block ``k``'s back face on the return wall (a body moved by ``motion``, see
     :func:`_wall_kinematics`; None: fixed, as the ground).
 
-    Returns ``(F_u, F_l, C_uu, C_ll, C_ul, fs_new, fn, power)``: generalised forces
+    Returns ``(F_u, F_l, C_uu, C_ll, C_ul, fs_new, fn, power, ft)``: generalised forces
     ``(Fx, Fy, M)`` on the upper and lower block (``F_l`` None for the ground and the wall),
-    the dashpot matrix blocks, the new shear springs, the total normal force [N] and the
-    power of a moving wall on the block [W] (0 otherwise)."""
+    the dashpot matrix blocks, the new shear springs, the total normal force [N] (along the
+    lower body's normal; a moving wall's: its horizontal component), the power of a moving
+    wall on the block [W] (0 otherwise) and the total shear force [N] (spring and dashpot,
+    along the lower body's tangent), both on the upper block, dashpots at the lagged
+    velocity."""
     line = None
     if wall:
         kin, e1, e2, rel, line = _wall_kinematics(p, st, k, motion)
@@ -738,7 +764,7 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         power = x0_dot * fn + slope_dot * (y_lo * fn + dy * fn1)
         power = power + rate * ((x_pivot - x_lo) * ft - dx * ft_tau)
     if ground:
-        return f_u, None, c_uu, None, None, fs_new, fn_out, power
+        return f_u, None, c_uu, None, None, fs_new, fn_out, power, ft
     # the lower body: the opposite forces, with arms shifted by X_u - X_l, a constant, so the
     # lower rows of the dashpot are the upper ones plus a constant in the moment entry
     x_rel, y_rel = rel
@@ -760,7 +786,7 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         ll[2][2] = _plus(ll[2][2], _mul(_mul(kappa, kappa), m0))
         c_ll = _add(c_ll, _scale(c_, ll))
         c_ul = _add(c_ul, _scale(c_, ul))
-    return f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn_out, power
+    return f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn_out, power, ft
 
 
 def _scale(a, m):
@@ -829,34 +855,40 @@ def step(
         The state at ``n + 1`` and the accelerations ``[[ax, ay, alpha], ...]`` per block at
         step ``n`` [m/s^2, rad/s^2] (relative to the base).
     """
-    new, acc, _ = _step(p, st, ag, ag_v, dt, load=load, top_motion=top_motion, wall=wall)
+    new, acc, *_ = _step(p, st, ag, ag_v, dt, load=load, top_motion=top_motion, wall=wall)
     return new, acc
 
 
 def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load, top_motion, wall):
-    """:func:`step`, also returning the power of a moving return wall on the blocks [W]."""
+    """:func:`step`, also returning the power of a moving return wall on the blocks [W] and
+    the step's contact forces [N] (the values the step computes anyway, none added): a dict
+    of ``normal``, ``shear`` (per interface, on the upper block), ``restraint`` (the top
+    restraint's horizontal force on the top block, or None) and ``wall`` (each back face's
+    normal force, or None)."""
     n = p.n
     force = [[0.0, 0.0, 0.0] for _ in range(n)]
     cdiag = [[[0.0] * 3 for _ in range(3)] for _ in range(n)]
     clow = [None] * n
-    fs_all, fn_all = [], []
+    fs_all, fn_all, ft_all = [], [], []
     for k in range(n):
-        f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn, _ = _interface(p, st, k, dt)
+        f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn, _, ft = _interface(p, st, k, dt)
         fs_all.append(fs_new)
         fn_all.append(fn)
+        ft_all.append(ft)
         force[k] = [_plus(force[k][i], f_u[i]) for i in range(3)]
         cdiag[k] = _add(cdiag[k], c_uu)
         if f_l is not None:
             force[k - 1] = [_plus(force[k - 1][i], f_l[i]) for i in range(3)]
             cdiag[k - 1] = _add(cdiag[k - 1], c_ll)
             clow[k] = c_ul
-    fs_wall = []
+    fs_wall, fn_wall = [], []
     power = 0.0
     if p.one_sided:  # a static choice: walls without return walls run none of this
         for k in range(n):
-            f_w, _, c_w, _, _, fs_new, _, pw = _interface(p, st, k, dt, wall=True, motion=wall)
+            f_w, _, c_w, _, _, fs_new, fn, pw, _ = _interface(p, st, k, dt, wall=True, motion=wall)
             power = power + pw
             fs_wall.append(fs_new)
+            fn_wall.append(fn)
             force[k] = [_plus(force[k][i], f_w[i]) for i in range(3)]
             cdiag[k] = _add(cdiag[k], c_w)
     f_top, c_top = _top(p, st, dt, top_motion)
@@ -902,7 +934,13 @@ def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load, top_motio
     out = AssemblyState(
         **{key: tuple(v) for key, v in new.items()}, fs=tuple(fs_all), fs_wall=tuple(fs_wall)
     )
-    return out, acc, power
+    forces = dict(
+        normal=fn_all,
+        shear=ft_all,
+        restraint=f_top[0] if p.restrained else None,
+        wall=fn_wall if p.one_sided else None,
+    )
+    return out, acc, power, forces
 
 
 # ----------------------------------------------------------------------------- energy, collapse
@@ -1153,6 +1191,9 @@ def _run(
         top_xs = (top[0], nxt(top[0]), top[1], nxt(top[1]))
     moving = wall is not None
     work = moving and "energy" in save
+    # the forces ride in the carry only when asked for (a static choice: no cost otherwise)
+    forces = "forces" in save
+    n_acc = 3 * p.n + (1 if work else 0)  # accelerations, then the wall's power, then forces
     wall_xs = () if not moving else (wall[0], nxt(wall[0]), wall[1], nxt(wall[1]))
     w_max = omega_max(p)
     unstable = dt > 2.0 / w_max * (1.0 + 1e-9)
@@ -1191,7 +1232,7 @@ def _run(
             s_, j, first = c[:3]
             tm = None if top is None else (u0 + j * du, w0 + j * dw)
             wm = (p0 + j * dp, q0 + j * dq) if moving else None
-            s_, acc, power = _step(
+            s_, acc, power, rec = _step(
                 p, s_, a0 + j * da, v0 + j * dv, dt, load=None, top_motion=tm, wall=wm
             )
             # scalars, not a stacked vector: XLA:CPU would build a vector element by element,
@@ -1199,12 +1240,17 @@ def _run(
             flat = [v for row in acc for v in row]
             if work:
                 flat.append(power)
+            if forces:
+                flat += [*rec["normal"], *rec["shear"]]
+                flat += [rec["restraint"]] if p.restrained else []
+                flat += rec["wall"] if p.one_sided else []
             first = tuple(jnp.where(j == 0.0, v, f) for v, f in zip(flat, first))
             if work:
                 return (s_, j + 1.0, first, c[3] + dt * power), None
             return (s_, j + 1.0, first), None
 
-        first0 = tuple(zero for _ in range(3 * p.n + (1 if work else 0)))
+        n_forces = (2 * p.n + p.restrained + (p.n if p.one_sided else 0)) if forces else 0
+        first0 = tuple(zero for _ in range(n_acc + n_forces))
         init = (st, zero, first0) + ((carry[3],) if work else ())
         done, _ = jax.lax.scan(inner, init, length=n_in)
         new, first = done[0], done[2]
@@ -1227,7 +1273,18 @@ def _run(
         if work:
             # as rockjax.simulate_dem: the steps' power x dt summed, half a step past the
             # sample (the constant half step of the first sample is taken off at the end)
-            out["work_wall"] = carry[3] + 0.5 * dt * first[-1]
+            out["work_wall"] = carry[3] + 0.5 * dt * first[3 * p.n]
+        if forces:
+            # the forces of the sample's step (its state, the dashpots at the lagged
+            # half-step velocity), as rockjax.simulate_dem records its base normal forces
+            rec = first[n_acc:]
+            n = p.n
+            out["normal_forces"] = jnp.stack(rec[:n], axis=-1)
+            out["shear_forces"] = jnp.stack(rec[n : 2 * n], axis=-1)
+            if p.restrained:
+                out["restraint_force"] = rec[2 * n]
+            if p.one_sided:
+                out["wall_forces"] = jnp.stack(rec[2 * n + p.restrained :], axis=-1)
         over = overturned | _collapsed(p, new)
         leaves = jax.tree_util.tree_leaves(new)
         bad = ~jnp.all(jnp.stack([jnp.all(jnp.isfinite(v)) for v in leaves]))
@@ -1273,6 +1330,10 @@ def _run(
         energy=out.get("energy"),
         dt=jnp.asarray(dt, float),
         work_wall=work_wall,
+        normal_forces=out.get("normal_forces"),
+        shear_forces=out.get("shear_forces"),
+        restraint_force=out.get("restraint_force"),
+        wall_forces=out.get("wall_forces"),
     )
 
 
@@ -1338,7 +1399,9 @@ def simulate_assembly(
         phi_deg: Friction angle of every interface [deg]; default 50 (two-sided) or 30
             (one-sided), as in :func:`rockjax.simulate_dem`.
         save_dt: Output interval for free motion [s] (default 0.002); with a record, its ``dt``.
-        save: Extra outputs: ``("energy",)`` (total mechanical energy [J]).
+        save: Extra outputs: ``"energy"`` (total mechanical energy [J]), ``"forces"``
+            (the interfaces' normal and shear forces, the top restraint's and the return
+            walls' forces [N]: :class:`AssemblyResponse`).
         beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
         throw: Raise (also inside ``jit``) if the run fails; if False, report ``status``.
         support_motion: A :class:`rockjax.ShearBuilding` whose floors carry the wall (needs
@@ -1351,19 +1414,24 @@ def simulate_assembly(
         storey: The storey the wall stands in (1-based, with ``support_motion``): base on
             floor ``storey - 1``, top restraint at floor ``storey``; ``n_storeys + 1`` for a
             wall on the roof (free top only).
-        wall_motion: Return walls that move relative to the base (``mode="one_sided"``, on the
-            ground: not with ``support_motion``; None: fixed): a pair ``(u_top, v_top)`` of
-            arrays [m], [m/s] with one value per record sample (the walls' displacement and
-            velocity at the stack's height ``H``, ``u_top > 0`` toward the facade;
-            traceable), or what :func:`rockjax.wall_top_motion` accepts (a
-            ``ShearBuilding``, the walls' absolute acceleration as a ``GroundMotion``, or
-            ``(height, GroundMotion)`` pairs), taken at ``H``; as ``wall_motion`` of
-            :func:`rockjax.simulate_dem`.
+        wall_motion: Return walls that move relative to the base (``mode="one_sided"``;
+            None: fixed): a pair ``(u_top, v_top)`` of arrays [m], [m/s] with one value per
+            record sample (the walls' displacement and velocity relative to the base at the
+            stack's height ``H``, ``u_top > 0`` toward the facade; traceable), or what
+            :func:`rockjax.wall_top_motion` accepts (a ``ShearBuilding``, the walls' absolute
+            acceleration as a ``GroundMotion``, or ``(height, GroundMotion)`` pairs), taken
+            at ``H``; as ``wall_motion`` of :func:`rockjax.simulate_dem`. With
+            ``support_motion`` (a facade in a building): the same ``ShearBuilding`` (the
+            walls move with the storey: the storey's drift interpolated linearly in height,
+            ``(u_i - u_{i-1}) H / h_i`` relative to the base floor, and its rate;
+            :func:`storey_supports`; not on the roof), or a pair relative to the base floor.
 
     Returns:
         An :class:`AssemblyResponse` with per-block ``theta``, ``x``, ``y`` (time x block);
         ``x`` relative to the base (the base floor in a building); with ``"energy"`` saved on
-        return walls, ``work_wall`` (the walls' work [J]).
+        return walls, ``work_wall`` (the walls' work [J]); with ``"forces"``,
+        ``normal_forces``, ``shear_forces`` (time x interface), ``restraint_force`` and
+        ``wall_forces`` [N].
 
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
@@ -1391,19 +1459,19 @@ def simulate_assembly(
             f"wall_motion (moving return walls) needs mode='one_sided' (a facade against its "
             f"return walls); got mode={mode!r}. Pass mode='one_sided', or drop wall_motion."
         )
-    if wall_motion is not None and support_motion is not None:
-        raise ValueError(
-            "wall_motion moves the return walls relative to the ground; with support_motion "
-            "(a wall standing in a building) give one or the other: the walls' motion "
-            "relative to the base floor as wall_motion=(u_top, v_top) with the floor's "
-            "motion as motion, or drop wall_motion."
-        )
+    # walls that move with the building the facade stands in: solved with its supports
+    with_building = check_walls_in_building(wall_motion, support_motion, storey)
     ag, ag_v, dt_out = prepare_motion(motion, duration, save_dt)
     wall = None
-    if wall_motion is not None:  # fixed walls take the path without wall arrays
+    if wall_motion is not None and not with_building:  # fixed walls: no wall arrays
         n_record = None if motion is None else np.shape(motion.ag)[0]
         wall = wall_arrays(wall_motion, motion, assembly.height, ag, dt_out, n_record)
-    ag, top = _in_building(support_motion, storey, assembly, motion, ag, dt_out)
+    wall_height = assembly.height if with_building else None
+    ag, top, *walls = _in_building(
+        support_motion, storey, assembly, motion, ag, dt_out, wall_height
+    )
+    if with_building:
+        wall = walls[0]
     accuracy = _check_accuracy(accuracy, joint, mode)
     limit, dt_default = _concrete_steps(p, assembly, beta_max, joint, dt, accuracy, mode)
     if dt is None:
@@ -1426,10 +1494,12 @@ def simulate_assembly(
     )
 
 
-def _in_building(building, storey, assembly: Assembly, motion, ag, dt_out):
+def _in_building(building, storey, assembly: Assembly, motion, ag, dt_out, wall_height=None):
     """The base floor's absolute acceleration [m/s^2] and the top restraint's motion
     relative to it (``(u [m], v [m/s])`` or ``None``), from the building's exact response
-    to the (padded) ground acceleration ``ag``."""
+    to the (padded) ground acceleration ``ag``; with ``wall_height`` [m] (a building), also
+    the return walls' ``(u_top, v_top)`` relative to the base floor at that height
+    (:func:`storey_supports`)."""
     if building is None:
         if storey != 1:
             raise ValueError(
@@ -1451,7 +1521,58 @@ def _in_building(building, storey, assembly: Assembly, motion, ag, dt_out):
             "building (its floors move only under a record)."
         )
     check_storey(building, storey, assembly.top)
-    return storey_supports(building, ag, dt_out, storey, assembly.top == "restrained")
+    restrained = assembly.top == "restrained"
+    return storey_supports(building, ag, dt_out, storey, restrained, wall_height=wall_height)
+
+
+def check_walls_in_building(wall_motion, support_motion, storey) -> bool:
+    """Whether the return walls move with the building the wall stands in
+    (``wall_motion=bldg, support_motion=bldg``: their motion is the storey's drift,
+    :func:`storey_supports`); raises ValueError, naming the argument and the fix, for the
+    combinations that do not define the walls' motion relative to the base floor. Without
+    ``support_motion`` (or ``wall_motion``): False, nothing checked."""
+    if wall_motion is None or support_motion is None:
+        return False
+    if is_array_pair(wall_motion):
+        return False  # (u_top, v_top) relative to the base floor, as given
+    if not isinstance(wall_motion, ShearBuilding):
+        raise ValueError(
+            "wall_motion with support_motion (a wall standing in a building) must be the "
+            "same rockjax.ShearBuilding as support_motion (the walls move with the storey), or "
+            "a pair (u_top, v_top) of arrays relative to the base floor [m, m/s]; got "
+            f"{type(wall_motion).__name__}. Accelerations are relative to the ground, not to "
+            "the base floor: pass wall_motion=support_motion or the pair."
+        )
+    if not isinstance(support_motion, ShearBuilding):
+        raise ValueError(
+            "wall_motion=<ShearBuilding> needs support_motion=<the same ShearBuilding>: with "
+            "support_motion=(u, v), motion is the base floor's acceleration and the building "
+            "cannot be solved from it. Pass wall_motion=(u_top, v_top), the walls' motion "
+            "relative to the base floor at the facade's height [m, m/s]."
+        )
+    if not _same_building(wall_motion, support_motion):
+        raise ValueError(
+            "wall_motion and support_motion must be the same rockjax.ShearBuilding (the "
+            "return walls move with the storey the facade stands in); got two different "
+            "buildings. Pass wall_motion=support_motion, or wall_motion=(u_top, v_top) "
+            "relative to the base floor."
+        )
+    if storey == support_motion.n_storeys + 1:
+        raise ValueError(
+            f"wall_motion=<ShearBuilding> moves the return walls with the storey the facade "
+            f"stands in; on the roof (storey={storey}) no storey is above it. Drop wall_motion "
+            "(walls fixed to the roof), or give wall_motion=(u_top, v_top) relative to it."
+        )
+    return True
+
+
+def _same_building(a: ShearBuilding, b: ShearBuilding) -> bool:
+    if a is b:
+        return True
+    try:
+        return bool(eqx.tree_equal(a, b))
+    except (jax.errors.ConcretizationTypeError, jax.errors.TracerBoolConversionError):
+        return False  # traced buildings: only the same object is known to be the same
 
 
 def check_storey(building: ShearBuilding, storey, top: str) -> int:
@@ -1469,22 +1590,39 @@ def check_storey(building: ShearBuilding, storey, top: str) -> int:
     return storey
 
 
-def storey_supports(building: ShearBuilding, ag, dt, storey: int, restrained: bool):
+def storey_supports(
+    building: ShearBuilding, ag, dt, storey: int, restrained: bool, *, wall_height=None
+):
     """What a wall in storey ``storey`` of ``building`` stands on and is held by, under the
     ground acceleration ``ag`` [m/s^2] at step ``dt`` [s]: the base floor's absolute
     acceleration [m/s^2] (``ag`` itself for storey 1) and, for a restrained top, the top
     floor's displacement [m] and velocity [m/s] relative to the base floor (else None), from
-    the building's exact response (:meth:`rockjax.ShearBuilding.response`)."""
+    the building's exact response (:meth:`rockjax.ShearBuilding.response`).
+
+    With ``wall_height`` [m] (a facade's height ``H``), a third value: the return walls'
+    ``(u_top, v_top)`` [m, m/s] relative to the base floor at ``H`` above it. A shear
+    building's storey deforms linearly between its floors, so the walls' displacement is the
+    floors' interpolated linearly in height, ``(u_i - u_{i-1}) H / h_i`` within storey ``i``
+    of height ``h_i`` (above floor ``i``, the next storey's; above the roof, the roof's), and
+    their velocity likewise."""
     resp = building.response(GroundMotion(ag=ag, dt=dt))
     base = storey - 1
-    if base > 0:
-        ag = resp.acceleration[base - 1]
-    if not restrained:
-        return ag, None
-    u, v = resp.displacement[storey - 1], resp.velocity[storey - 1]
-    if base > 0:
-        u, v = u - resp.displacement[base - 1], v - resp.velocity[base - 1]
-    return ag, (u, v)
+    ag_base = ag if base == 0 else resp.acceleration[base - 1]
+    top = None
+    if restrained:
+        u, v = resp.displacement[storey - 1], resp.velocity[storey - 1]
+        if base > 0:
+            u, v = u - resp.displacement[base - 1], v - resp.velocity[base - 1]
+        top = (u, v)
+    if wall_height is None:
+        return ag_base, top
+    nodes = jnp.concatenate([jnp.zeros(1), jnp.cumsum(building.storey_heights)])
+    z = nodes[base] + jnp.asarray(wall_height, float)
+    # the weights of the floors (the ground first) in the piecewise-linear profile at z
+    weights = jax.vmap(lambda f: jnp.interp(z, nodes, f))(jnp.eye(nodes.shape[0]))
+    weights = weights.at[base].add(-1.0)  # relative to the base floor
+    u_w, v_w = weights[1:] @ resp.displacement, weights[1:] @ resp.velocity
+    return ag_base, top, (u_w, v_w)
 
 
 def _restraint_arrays(pair, storey, assembly: Assembly, ag):

@@ -871,7 +871,8 @@ def test_moving_wall_bad_input_is_refused_with_a_fix(user_view):
         rj.simulate_dem(wall, gm, mode="one_sided", wall_motion=(z[:-1], z))
     with pytest.raises(ValueError, match="non-finite"):
         rj.simulate_dem(wall, gm, mode="one_sided", wall_motion=(z + np.nan, z))
-    with pytest.raises(ValueError, match="one or the other"):
+    with pytest.raises(ValueError, match="same rockjax.ShearBuilding"):
+        other = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.3)
         rj.simulate_dem(
-            wall, gm, mode="one_sided", wall_motion=(z, z), support_motion=BUILDING, storey=1
+            wall, gm, mode="one_sided", wall_motion=other, support_motion=BUILDING, storey=1
         )
