@@ -1,12 +1,18 @@
 """Assemblies of rigid blocks: a wall of blocks stacked vertically on the ground, with an
-optional horizontal restraint at the top and an overburden (docs/assemblies.md).
+optional horizontal restraint at the top and an overburden, or a row of blocks side by side
+on the ground (the leaves of a multi-leaf wall), docs/assemblies.md.
 
-The topology is static: block ``0`` stands on the ground, block ``k`` on block ``k - 1``.
-Interface ``0`` is the ground joint under block 0, interface ``k`` the bed joint between
-blocks ``k - 1`` and ``k``: the overlap of the top face of the lower block and the bottom face
-of the upper one at rest, fixed in the upper block's frame. Every interface takes the joint
-stiffness of the block above it (``j_kn = E/h``, ``j_ks = j_kn / (2 (1 + nu))`` of that block),
-so the ground joint of a one-block assembly is that of :func:`rockjax.simulate_dem`.
+The topology is static. A stack (:meth:`Assembly.stack`): block ``0`` stands on the ground,
+block ``k`` on block ``k - 1``; interface ``0`` is the ground joint under block 0, interface
+``k`` the bed joint between blocks ``k - 1`` and ``k``: the overlap of the top face of the
+lower block and the bottom face of the upper one at rest, fixed in the upper block's frame.
+Every bed joint takes the joint stiffness of the block above it (``j_kn = E/h``,
+``j_ks = j_kn / (2 (1 + nu))`` of that block), so the ground joint of a one-block assembly is
+that of :func:`rockjax.simulate_dem`. A row (:meth:`Assembly.row`): every block stands on the
+ground (interfaces ``0 .. n-1``, its ground joint), and block ``k`` meets block ``k - 1`` on a
+head joint (interface ``n - 1 + k``): the overlap of block ``k``'s -x face with block
+``k - 1``'s +x face, fixed in block ``k``'s frame, stiffness ``E/b`` of block ``k`` (the
+block's deformability across the joint, as ``E/h`` across a bed joint).
 """
 
 from __future__ import annotations
@@ -21,10 +27,11 @@ from .block import Block
 from .constants import G
 
 TOPS = ("free", "restrained")
+LAYOUTS = ("stack", "row")
 
 
 class Assembly(eqx.Module):
-    """A wall of rigid blocks stacked vertically (static topology).
+    """A wall of rigid blocks stacked vertically, or standing side by side (static topology).
 
     Block ``k`` stands on block ``k - 1`` (block 0 on the ground), its centre at the
     horizontal position ``x_offset[k]`` [m] at rest, so a block may be narrower than the one
@@ -43,12 +50,18 @@ class Assembly(eqx.Module):
         wall = rj.Assembly.stack([rj.Block(b=0.23, h=1.5)] * 2, top="restrained",
                                  overburden=5e3)
 
+    or, blocks side by side on the ground (``layout="row"``, free tops, no overburden), with
+    :meth:`Assembly.row`::
+
+        leaves = rj.Assembly.row([rj.Block(b=0.11, h=2.0), rj.Block(b=0.11, h=2.0)])
+
     Attributes:
-        blocks: The blocks, bottom to top.
-        x_offset: Horizontal position of each block's centre at rest [m] (default all 0).
+        blocks: The blocks, bottom to top (a stack) or from -x to +x (a row).
+        x_offset: Horizontal position of each block's centre at rest [m].
         top: ``"free"`` or ``"restrained"``.
         gap: Clearance of the top restraint on either side [m] (``top="restrained"`` only).
         overburden: Vertical load on the top face per unit length of wall [N/m].
+        layout: ``"stack"`` (default) or ``"row"``.
     """
 
     blocks: tuple[Block, ...]
@@ -56,6 +69,7 @@ class Assembly(eqx.Module):
     top: str = eqx.field(static=True, default="free")
     gap: ScalarLike = 0.0
     overburden: ScalarLike = 0.0
+    layout: str = eqx.field(static=True, default="stack")
 
     def __check_init__(self):
         if not isinstance(self.blocks, tuple) or len(self.blocks) == 0:
@@ -72,6 +86,7 @@ class Assembly(eqx.Module):
                 f" got {len(self.x_offset)} values. Leave x_offset=None for all 0."
             )
         check_choice("top", self.top, TOPS)
+        check_choice("layout", self.layout, LAYOUTS)
         check_nonnegative(
             "gap", self.gap, "m", "gap is the top restraint's clearance, e.g. 0.002.", scalar=True
         )
@@ -90,6 +105,9 @@ class Assembly(eqx.Module):
                 f"all blocks of an assembly must share one out-of-plane length [m]; got "
                 f"lengths={[float(v) for v in lengths]}. Give every Block the same length."
             )
+        if self.layout == "row":
+            self._check_row()
+            return
         for k in range(1, len(self.blocks)):
             lo, hi = (concrete(v) for v in self.overlap(k))
             if lo is not None and hi is not None and not hi > lo:
@@ -99,6 +117,83 @@ class Assembly(eqx.Module):
                     f"{self.x_offset[k - 1]} m). Move x_offset[{k}] within (b[{k}] + b[{k - 1}])/2 "
                     f"of x_offset[{k - 1}]."
                 )
+
+    def _check_row(self):
+        if self.top != "free" or concrete(self.overburden) not in (None, 0.0):
+            raise ValueError(
+                f"a row of blocks side by side stands free: top='free' and overburden=0; got "
+                f"top={self.top!r}, overburden={self.overburden!r}. Stack the blocks "
+                "(rj.Assembly.stack) for a restrained or loaded wall."
+            )
+        for k in range(1, len(self.blocks)):
+            vals = [concrete(v) for v in (self.x_offset[k - 1], self.x_offset[k])]
+            vals += [concrete(self.blocks[j].b) for j in (k - 1, k)]
+            if any(v is None for v in vals):
+                continue
+            x_l, x_r, b_l, b_r = (float(v) for v in vals)
+            clear = x_r - x_l - 0.5 * (b_l + b_r)
+            if clear < -1e-12 * max(b_l, b_r):
+                raise ValueError(
+                    f"blocks[{k}] overlaps blocks[{k - 1}] in the row by {-clear:.4g} m "
+                    f"(x_offset[{k}]={x_r} m, x_offset[{k - 1}]={x_l} m, b={b_r} and {b_l} m). "
+                    f"Place block centres at least (b[{k - 1}] + b[{k}])/2 apart, from -x to "
+                    "+x (x_offset=None: touching)."
+                )
+
+    @classmethod
+    def row(cls, blocks, *, x_offset=None) -> Assembly:
+        """Stand ``blocks`` side by side on the ground, from -x to +x: the leaves of a
+        multi-leaf wall, or blocks leaning on each other. Each block has its ground joint;
+        neighbours touch (or, with ``x_offset``, face each other across a gap) on a head joint,
+        with the contact law of every joint (docs/assemblies.md, "Blocks side by side").
+
+        Args:
+            blocks: A sequence of :class:`rockjax.Block`, from -x to +x.
+            x_offset: Horizontal position of each block's centre at rest [m]; default: block 0
+                at 0 and each next block touching the one before.
+
+        Returns:
+            The :class:`Assembly` (``layout="row"``, free tops, no overburden).
+
+        Raises:
+            ValueError: on an empty row, a non-Block, or blocks that overlap.
+        """
+        blocks = tuple(blocks)
+        if x_offset is None and blocks and all(isinstance(b, Block) for b in blocks):
+            x_offset = [0.0]
+            for k in range(1, len(blocks)):
+                x_offset.append(x_offset[-1] + 0.5 * (blocks[k - 1].b + blocks[k].b))
+        elif x_offset is None:
+            x_offset = (0.0,) * len(blocks)
+        return cls(blocks=blocks, x_offset=tuple(x_offset), layout="row")
+
+    @property
+    def interfaces(self) -> tuple[tuple[int, int, str], ...]:
+        """The joints, a static tuple of ``(block, other, kind)``: the joint on ``block``'s
+        face meeting ``other`` (``-1``: the ground), ``kind`` ``"bed"`` (``block``'s bottom
+        face on a top face) or ``"head"`` (``block``'s -x face on ``other``'s +x face).
+        A stack: interface ``k`` under block ``k``; a row: the ground joints of blocks
+        ``0 .. n-1``, then the head joints of blocks ``1 .. n-1``."""
+        n = len(self.blocks)
+        if self.layout == "row":
+            return tuple((k, -1, "bed") for k in range(n)) + tuple(
+                (k, k - 1, "head") for k in range(1, n)
+            )
+        return ((0, -1, "bed"),) + tuple((k, k - 1, "bed") for k in range(1, n))
+
+    def face(self, i: int):
+        """The contact face of interface ``i`` (:attr:`interfaces`) in its block's frame:
+        ``(lo, hi)`` [m], body coordinates of its ends, along the bottom face (x) for a bed
+        joint (:meth:`overlap` for a stack) and up the -x face (y) for a head joint (the
+        height both blocks share: both stand on the ground)."""
+        k, other, kind = self.interfaces[i]
+        blk = self.blocks[k]
+        if kind == "head":
+            below = self.blocks[other]
+            return -0.5 * blk.h, jnp.minimum(0.5 * blk.h, below.h - 0.5 * blk.h)
+        if other < 0:
+            return -0.5 * blk.b, 0.5 * blk.b
+        return self.overlap(k)
 
     @classmethod
     def stack(
@@ -150,7 +245,9 @@ class Assembly(eqx.Module):
 
     @property
     def height(self):
-        """Total height of the stack [m]."""
+        """Height of the wall [m]: the stack's total, or a row's tallest block."""
+        if self.layout == "row":
+            return jnp.max(jnp.stack([jnp.asarray(b.h, float) for b in self.blocks]))
         return sum(b.h for b in self.blocks)
 
     @property
@@ -164,19 +261,20 @@ class Assembly(eqx.Module):
         return self.overburden * self.length
 
     def overlap(self, k: int):
-        """The contact face of interface ``k`` in block ``k``'s frame: ``(lo, hi)`` [m], the
-        horizontal body coordinates of its ends on the bottom face (the whole face for the
-        ground joint, ``k = 0``; else the overlap with the top face of block ``k - 1``)."""
+        """The contact face of the bed joint under block ``k`` of a stack, in block ``k``'s
+        frame: ``(lo, hi)`` [m], the horizontal body coordinates of its ends on the bottom face
+        (the whole face on the ground, ``k = 0`` or any block of a row; else the overlap with
+        the top face of block ``k - 1``)."""
         blk = self.blocks[k]
         half = 0.5 * blk.b
-        if k == 0:
+        if k == 0 or self.layout == "row":
             return -half, half
         below = self.blocks[k - 1]
         rel = self.x_offset[k - 1] - self.x_offset[k]
         return jnp.maximum(-half, rel - 0.5 * below.b), jnp.minimum(half, rel + 0.5 * below.b)
 
 
-MECHANISMS = ("stack", "top", "hinge")
+MECHANISMS = ("stack", "top", "hinge", "row")
 
 
 def collapse_multiplier(assembly: Assembly, mechanism: str = "stack"):
@@ -195,13 +293,19 @@ def collapse_multiplier(assembly: Assembly, mechanism: str = "stack"):
       block 1 about the restraint point ``C`` (top face centre, held horizontally), a hinge
       ``B`` at the heel of the bed joint; ``lambda = (W_0 (x_A - x_0) + W_1 (a - (x_B - x_1)
       r) + P (a - (x_B - x_C) r)) / ((W_0 + W_1) h_0 / 2)`` with ``a = x_A - x_B`` and
-      ``r = h_0 / h_1`` (both centroids move ``h_0 / 2`` per unit rotation of block 0).
+      ``r = h_0 / h_1`` (both centroids move ``h_0 / 2`` per unit rotation of block 0);
+    * ``"row"`` (a row of touching blocks side by side, :meth:`Assembly.row`): the blocks
+      ``j .. n-1`` at the +x end each turn about their own +x toe by the same angle (the
+      smooth head joints between them slide, their faces neither open nor close to first
+      order; a block turning faster than the one at its +x side would enter it), the others
+      stay: ``lambda_j = sum_{k >= j} W_k b_k / sum_{k >= j} W_k h_k``, and the smallest over
+      ``j`` is returned.
 
     The mechanism toward +x is returned (mirror the assembly for -x).
 
     Args:
         assembly: The assembly.
-        mechanism: ``"stack"``, ``"top"`` or ``"hinge"``.
+        mechanism: ``"stack"``, ``"top"``, ``"hinge"`` or ``"row"``.
 
     Returns:
         The multiplier ``lambda`` [-] (a JAX scalar).
@@ -221,6 +325,14 @@ def collapse_multiplier(assembly: Assembly, mechanism: str = "stack"):
     xs = assembly.x_offset
     ys = [heights[k] + 0.5 * blocks[k].h for k in range(n)]
     restrained = assembly.top == "restrained"
+    if (mechanism == "row") != (assembly.layout == "row"):
+        raise ValueError(
+            f"mechanism={mechanism!r} does not apply to a {assembly.layout} of blocks: use "
+            "mechanism='row' for rj.Assembly.row(...), and 'stack', 'top' or 'hinge' for "
+            "rj.Assembly.stack(...)."
+        )
+    if mechanism == "row":
+        return _row_multiplier(assembly)
     if mechanism in ("stack", "top") and restrained:
         raise ValueError(
             f"mechanism={mechanism!r} needs a free top (the restraint holds the top); use "
@@ -249,3 +361,27 @@ def collapse_multiplier(assembly: Assembly, mechanism: str = "stack"):
     num = w[0] * (x_a - xs[0]) + w[1] * (a - (x_b - xs[1]) * r) + p * (a - (x_b - x_c) * r)
     den = 0.5 * b0.h * (w[0] + w[1])
     return jnp.asarray(num / den, float)
+
+
+def _row_multiplier(assembly: Assembly):
+    """The ``"row"`` mechanism of :func:`collapse_multiplier` (a JAX scalar)."""
+    blocks = assembly.blocks
+    for k in range(1, len(blocks)):
+        vals = [concrete(v) for v in (assembly.x_offset[k - 1], assembly.x_offset[k])]
+        vals += [concrete(blocks[j].b) for j in (k - 1, k)]
+        if any(v is None for v in vals):
+            continue
+        clear = vals[1] - vals[0] - 0.5 * (vals[2] + vals[3])
+        if clear > 1e-9 * max(vals[2], vals[3]):
+            raise ValueError(
+                f"mechanism='row' is the mechanism of touching blocks; blocks[{k - 1}] and "
+                f"blocks[{k}] are {clear:.4g} m apart (x_offset), a gap they close only at "
+                "finite rotation. Build the row with rj.Assembly.row(blocks) (x_offset=None)."
+            )
+    w = [b.m * G for b in blocks]
+    lams = []
+    for j in range(len(blocks)):
+        num = sum(w[k] * blocks[k].b for k in range(j, len(blocks)))
+        den = sum(w[k] * blocks[k].h for k in range(j, len(blocks)))
+        lams.append(jnp.asarray(num / den, float))
+    return jnp.min(jnp.stack(lams))

@@ -120,7 +120,8 @@ def ida(
             ``wall_motion`` put its blocks' back faces on return walls, as in
             :func:`rockjax.simulate_assembly`). For an assembly ``max_d_over_b`` is the peak
             horizontal displacement of the top block's top centre over the bottom block's
-            ``b`` (at the record samples), ``max_theta_over_eta`` the largest over the blocks,
+            ``b`` (at the record samples; for a row, :meth:`rockjax.Assembly.row`, the +x end
+            block's over block 0's), ``max_theta_over_eta`` the largest over the blocks,
             ``collapse`` the assembly's collapse rule (:func:`rockjax.simulate_assembly`).
         records: Ground motions, with distinct names. They may differ in length (zero-padded to
             the longest, plus ``tail``) and in ``dt`` (each runs on its own).

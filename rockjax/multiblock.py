@@ -12,11 +12,15 @@ law of :func:`rockjax.contact.normal_force` integrated in closed form over the f
 the breakpoints of its onset window, two-point Gauss per piece; one resultant elastic-plastic
 shear spring per face) carries over unchanged: forces act along the lower body's normal and
 tangent, equal and opposite on the two bodies. ``Joint(n_sub=k)`` puts ``k`` point
-sub-contacts on each face instead (trapezoidal tributary areas).
+sub-contacts on each face instead (trapezoidal tributary areas). A head joint between blocks
+side by side (a row) is the same with the frames turned by a right angle: block ``k``'s -x
+face against block ``k - 1``'s +x face; it is smooth (no shear spring or dashpot,
+docs/assemblies.md "Blocks side by side").
 
 Dashpots are centred, as in :mod:`rockjax.dem`: with ``F`` the forces at the lagged half-step
 velocities and ``C`` the dashpot matrix of all closed contacts, ``(M + dt/2 C) a = F``. ``C``
-couples the two blocks of each joint, so the system is block-tridiagonal (3 x 3 blocks); it is
+couples the two blocks of each joint, and every joint couples block ``k`` to the ground or to
+block ``k - 1`` (a stack or a row), so the system is block-tridiagonal (3 x 3 blocks); it is
 solved exactly every step by block elimination (no lag: the scheme stays second-order and the
 one-block assembly reproduces :func:`rockjax.simulate_dem`).
 """
@@ -81,12 +85,14 @@ class AssemblyParams(eqx.Module):
     """Everything the multi-block step needs, as arrays (built by :func:`assembly_params`).
 
     Per block (shape ``(n_blocks,)``): ``m`` [kg], ``I_c`` [kg m^2], ``b``, ``h``, ``eta``,
-    ``x0`` (centre at rest [m]). Per interface ``k`` (under block ``k``): ``lo``, ``hi`` (ends
-    of the contact face in block ``k``'s frame [m]), ``kn_line``, ``ks_line`` (stiffness per
-    unit face length [N/m^2], also those of block ``k``'s back face on a return wall).
-    Scalars: ``beta`` [s], ``tan_phi``, ``top_load`` [N], ``gap`` [m], ``k_top`` (top
-    restraint spring [N/m]), ``wall_gap`` (return wall behind the back faces [m]).
-    ``one_sided``: the blocks' back faces meet return walls (a facade)."""
+    ``x0``, ``y0`` (centre at rest [m]). Per interface ``i`` (``links[i] = (k, other, kind)``,
+    :attr:`rockjax.assembly.Assembly.interfaces`): ``lo``, ``hi`` (ends of the contact face in
+    block ``k``'s frame [m]), ``kn_line``, ``ks_line`` (stiffness per unit face length
+    [N/m^2]; in a stack interface ``k`` is under block ``k``, and its stiffness is also that
+    of block ``k``'s back face on a return wall). Scalars: ``beta`` [s], ``tan_phi``,
+    ``top_load`` [N], ``gap`` [m], ``k_top`` (top restraint spring [N/m]), ``wall_gap``
+    (return wall behind the back faces [m]). ``one_sided``: the blocks' back faces meet
+    return walls (a facade); ``row``: the blocks stand side by side."""
 
     m: jax.Array
     I_c: jax.Array
@@ -94,6 +100,7 @@ class AssemblyParams(eqx.Module):
     h: jax.Array
     eta: jax.Array
     x0: jax.Array
+    y0: jax.Array
     lo: jax.Array
     hi: jax.Array
     kn_line: jax.Array
@@ -109,6 +116,8 @@ class AssemblyParams(eqx.Module):
     onset: str = eqx.field(static=True)
     restrained: bool = eqx.field(static=True)
     one_sided: bool = eqx.field(static=True)
+    links: tuple = eqx.field(static=True, default=())
+    row: bool = eqx.field(static=True, default=False)
 
     @property
     def n(self) -> int:
@@ -245,12 +254,34 @@ def assembly_params(
     if phi is not None and not (0.0 < phi < 90.0):
         raise ValueError(f"phi_deg (friction angle, degrees) must be in (0, 90); got {phi_deg}.")
     blocks = assembly.blocks
-    n = len(blocks)
 
     def arr(values):
         return jnp.stack([jnp.asarray(v, float) for v in values])
 
-    ends = [assembly.overlap(k) for k in range(n)]
+    links = assembly.interfaces
+    # the dashpot solve is block-tridiagonal: each joint couples block k to the ground or to
+    # block k - 1 (a stack or a row)
+    assert all(other in (-1, k - 1) for k, other, _ in links)
+    ends = [assembly.face(i) for i in range(len(links))]
+    # a bed joint takes j_kn = E/h of the block above it (the paper's rule); a head joint is
+    # smooth (no shear spring, no shear dashpot: docs/assemblies.md "Blocks side by side")
+    # with j_kn = E/b of its block, the block's deformability across the joint
+    kn, ks = [], []
+    for k, _, kind in links:
+        blk = blocks[k]
+        if kind == "bed":
+            kn.append(blk.j_kn * blk.length)
+            ks.append(blk.j_ks * blk.length)
+        else:
+            kn.append(blk.E / blk.b * blk.length)
+            ks.append(0.0 * blk.length)
+    if assembly.layout == "row":
+        y0 = [0.5 * b.h for b in blocks]
+    else:
+        y0, base = [], 0.0
+        for b in blocks:
+            y0.append(base + 0.5 * b.h)
+            base = base + b.h
     top = blocks[-1]
     return AssemblyParams(
         m=arr([b.m for b in blocks]),
@@ -259,10 +290,11 @@ def assembly_params(
         h=arr([b.h for b in blocks]),
         eta=arr([b.eta for b in blocks]),
         x0=arr(assembly.x_offset),
+        y0=arr(y0),
         lo=arr([e[0] for e in ends]),
         hi=arr([e[1] for e in ends]),
-        kn_line=arr([b.j_kn * b.length for b in blocks]),
-        ks_line=arr([b.j_ks * b.length for b in blocks]),
+        kn_line=arr(kn),
+        ks_line=arr(ks),
         beta=jnp.asarray(beta, float),
         tan_phi=jnp.tan(jnp.deg2rad(jnp.asarray(phi_deg, float))),
         top_load=jnp.asarray(assembly.top_load, float),
@@ -275,6 +307,8 @@ def assembly_params(
         onset=joint.onset,
         restrained=assembly.top == "restrained",
         one_sided=mode == "one_sided",
+        links=links,
+        row=assembly.layout == "row",
     )
 
 
@@ -302,25 +336,31 @@ def omega_max(p: AssemblyParams):
     (an upper bound over contact states, as :func:`rockjax.dem.omega_max` for one block)."""
     n = p.n
     k_mat = jnp.zeros((3 * n, 3 * n))
-    for k in range(n):
-        t, kn, ks = _springs(p, k)
-        zero, one = jnp.zeros_like(t), jnp.ones_like(t)
-        # rows of the relative normal (vertical) and tangential (horizontal) point motion
-        up_n = jnp.stack([zero, one, -t], axis=-1)
-        up_s = jnp.stack([one, zero, -0.5 * p.h[k] * one], axis=-1)
-        cols = list(range(3 * k, 3 * k + 3))
-        if k == 0:
-            a_n, a_s = up_n, up_s
+
+    def rows(e, rx, ry):
+        # a unit force along e at offset (rx, ry) from a centroid: (Fx, Fy, clockwise moment)
+        one = jnp.ones_like(rx)
+        return jnp.stack([e[0] * one, e[1] * one, ry * e[0] - rx * e[1]], axis=-1)
+
+    for i, (k, other, kind) in enumerate(p.links):
+        t, kn, ks = _springs(p, i)
+        # the face point at rest from block k's centroid, the joint's normal and tangent
+        if kind == "bed":
+            rx, ry, nrm, tng = t, -0.5 * p.h[k] + 0.0 * t, (0.0, 1.0), (1.0, 0.0)
         else:
-            dx = p.x0[k] + t - p.x0[k - 1]
-            lo_n = jnp.stack([zero, -one, dx], axis=-1)
-            lo_s = jnp.stack([-one, zero, -0.5 * p.h[k - 1] * one], axis=-1)
-            a_n = jnp.concatenate([lo_n, up_n], axis=-1)
-            a_s = jnp.concatenate([lo_s, up_s], axis=-1)
-            cols = list(range(3 * k - 3, 3 * k + 3))
+            rx, ry, nrm, tng = -0.5 * p.b[k] + 0.0 * t, t, (1.0, 0.0), (0.0, 1.0)
+        a_n, a_s = rows(nrm, rx, ry), rows(tng, rx, ry)
+        cols = list(range(3 * k, 3 * k + 3))
+        if other >= 0:
+            lx = p.x0[k] + rx - p.x0[other]
+            ly = p.y0[k] + ry - p.y0[other]
+            a_n = jnp.concatenate([-rows(nrm, lx, ly), a_n], axis=-1)
+            a_s = jnp.concatenate([-rows(tng, lx, ly), a_s], axis=-1)
+            cols = list(range(3 * other, 3 * other + 3)) + cols
         sub = jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
         idx = jnp.asarray(cols)
         k_mat = k_mat.at[idx[:, None], idx[None, :]].add(sub)
+    for k in range(n):
         if p.one_sided:
             # the back face (-b/2, t): horizontal motion (1, 0, t), vertical (0, 1, b/2)
             t, kn, ks = _springs(p, k, wall=True)
@@ -498,31 +538,47 @@ def _solve_tridiagonal(diag, lower, rhs):
 # ----------------------------------------------------------------------------- contact
 
 
-def _pair_kinematics(p: AssemblyParams, st: AssemblyState, k: int):
-    """The geometry of interface ``k`` as a function of the face coordinate ``t``: returns
+def _pair_kinematics(p: AssemblyParams, st: AssemblyState, i: int):
+    """The geometry of interface ``i`` as a function of the face coordinate ``t``: returns
     ``kin(t) -> (rx_u, ry_u, dx, dy, delta, delta_dot, slip)`` (arms of the point from the
-    upper and lower centroids, penetration, its rate, slip rate) and the lower body's unit
-    tangent ``e1`` and normal ``e2`` (world)."""
+    face block's and the other body's centroids, penetration, its rate, slip rate), the
+    other body's unit tangent ``e1`` and normal ``e2`` (world), and the centroids' offset
+    ``X_u - X_l`` (None for the ground).
+
+    A bed joint: block ``k``'s bottom face point ``(t, -h_k/2)`` against the top face of the
+    body below (normal its body +y). A head joint: block ``k``'s -x face point
+    ``(-b_k/2, t)`` against the +x face of block ``other`` (normal that block's body +x,
+    tangent its body +y), the same formulas with the frames turned by a right angle."""
+    k, other, kind = p.links[i]
     cu, su, xu, yu = st.c[k], st.s[k], st.x[k], st.y[k]
     vxu, vyu, wu = st.vx[k], st.vy[k], st.w[k]
-    hu = 0.5 * p.h[k]
-    if k == 0:  # the ground: fixed, normal +y, surface y = 0
+    head = kind == "head"
+    half = 0.5 * (p.b[k] if head else p.h[k])
+    if other < 0:  # the ground: fixed, normal +y, surface y = 0
 
         def kin(t):
-            rx = t * cu - hu * su
-            ry = -t * su - hu * cu
+            rx = t * cu - half * su
+            ry = -t * su - half * cu
             return rx, ry, xu + rx, yu + ry, -(yu + ry), -(vyu - wu * rx), vxu + wu * ry
 
         return kin, (1.0, 0.0), (0.0, 1.0), None
-    cl, sl, xl, yl = st.c[k - 1], st.s[k - 1], st.x[k - 1], st.y[k - 1]
-    vxl, vyl, wl = st.vx[k - 1], st.vy[k - 1], st.w[k - 1]
-    hl = 0.5 * p.h[k - 1]
-    e1, e2 = (cl, -sl), (sl, cl)
+    cl, sl, xl, yl = st.c[other], st.s[other], st.x[other], st.y[other]
+    vxl, vyl, wl = st.vx[other], st.vy[other], st.w[other]
+    if head:
+        hl = 0.5 * p.b[other]
+        e1, e2 = (sl, cl), (cl, -sl)
+    else:
+        hl = 0.5 * p.h[other]
+        e1, e2 = (cl, -sl), (sl, cl)
     x_rel, y_rel = xu - xl, yu - yl
 
     def kin(t):
-        rx = t * cu - hu * su
-        ry = -t * su - hu * cu
+        if head:  # body point (-b_k/2, t)
+            rx = -half * cu + t * su
+            ry = half * su + t * cu
+        else:  # body point (t, -h_k/2)
+            rx = t * cu - half * su
+            ry = -t * su - half * cu
         dx, dy = x_rel + rx, y_rel + ry
         gx = vxu + wu * ry - vxl - wl * dy
         gy = vyu - wu * rx - vyl + wl * dx
@@ -531,9 +587,9 @@ def _pair_kinematics(p: AssemblyParams, st: AssemblyState, k: int):
             ry,
             dx,
             dy,
-            hl - (sl * dx + cl * dy),
-            -(sl * gx + cl * gy),
-            cl * gx - sl * gy,
+            hl - (e2[0] * dx + e2[1] * dy),
+            -(e2[0] * gx + e2[1] * gy),
+            e1[0] * gx + e1[1] * gy,
         )
 
     return kin, e1, e2, (x_rel, y_rel)
@@ -870,16 +926,16 @@ def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load, top_motio
     cdiag = [[[0.0] * 3 for _ in range(3)] for _ in range(n)]
     clow = [None] * n
     fs_all, fn_all, ft_all = [], [], []
-    for k in range(n):
-        f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn, _, ft = _interface(p, st, k, dt)
+    for j, (k, other, _) in enumerate(p.links):
+        f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn, _, ft = _interface(p, st, j, dt)
         fs_all.append(fs_new)
         fn_all.append(fn)
         ft_all.append(ft)
         force[k] = [_plus(force[k][i], f_u[i]) for i in range(3)]
         cdiag[k] = _add(cdiag[k], c_uu)
-        if f_l is not None:
-            force[k - 1] = [_plus(force[k - 1][i], f_l[i]) for i in range(3)]
-            cdiag[k - 1] = _add(cdiag[k - 1], c_ll)
+        if f_l is not None:  # other = k - 1 (a stack or a row: a chain)
+            force[other] = [_plus(force[other][i], f_l[i]) for i in range(3)]
+            cdiag[other] = _add(cdiag[other], c_ll)
             clow[k] = c_ul
     fs_wall, fn_wall = [], []
     power = 0.0
@@ -961,14 +1017,17 @@ def _face_energy(p: AssemblyParams, k: int, kin, lo, hi, hist):
             e = e + 0.5 * p.kn_line[k] * half * jnp.maximum(d, 0.0) ** 2
         length = cb - ca
         safe = jnp.where(length > 0.0, length, 1.0)
-        return e + jnp.where(length > 0.0, 0.5 * hist[0] ** 2 / (p.ks_line[k] * safe), 0.0)
+        ks = p.ks_line[k]
+        ok = (length > 0.0) & (ks > 0.0)  # (a smooth head joint has no shear spring)
+        return e + jnp.where(ok, 0.5 * hist[0] ** 2 / jnp.where(ok, ks * safe, 1.0), 0.0)
     n_sub = p.n_sub
     step = (hi - lo) / (n_sub - 1)
     for i in range(n_sub):
         wgt = (0.5 if i in (0, n_sub - 1) else 1.0) * step
         d = d_lo + i / (n_sub - 1) * (d_hi - d_lo)
         e = e + 0.5 * p.kn_line[k] * wgt * jnp.maximum(d, 0.0) ** 2
-        e = e + 0.5 * hist[i] ** 2 / (p.ks_line[k] * wgt)
+        ks = p.ks_line[k] * wgt
+        e = e + jnp.where(ks > 0.0, 0.5 * hist[i] ** 2 / jnp.where(ks > 0.0, ks, 1.0), 0.0)
     return e
 
 
@@ -976,12 +1035,13 @@ def _energy(p: AssemblyParams, st: AssemblyState, vel, wall=None):
     """Kinetic + gravity + overburden + spring energy [J] (springs integrated exactly; the
     return walls' too, moved by ``wall = (u_top, v_top)`` [m, m/s] or fixed)."""
     e = 0.0
+    for i in range(len(p.links)):
+        kin = _pair_kinematics(p, st, i)[0]
+        e = e + _face_energy(p, i, kin, p.lo[i], p.hi[i], st.fs[i])
     for k in range(p.n):
         vx, vy, w = vel[k]
         e = e + 0.5 * p.m[k] * (vx**2 + vy**2) + 0.5 * p.I_c[k] * w**2
         e = e + p.m[k] * G * st.y[k]
-        kin = _pair_kinematics(p, st, k)[0]
-        e = e + _face_energy(p, k, kin, p.lo[k], p.hi[k], st.fs[k])
         if p.one_sided:
             kin = _wall_kinematics(p, st, k, wall)[0]
             e = e + _face_energy(p, k, kin, -0.5 * p.h[k], 0.5 * p.h[k], st.fs_wall[k])
@@ -1000,8 +1060,16 @@ def _collapsed(p: AssemblyParams, st: AssemblyState):
     rotating outward (the one-block rule of :func:`rockjax.simulate_dem`); with a free top, a
     sub-stack whose centre of gravity (overburden included) has passed the edge of its
     support and moves outward; a block whose bottom face's centre has slid off the block
-    below."""
+    below. A row (side by side, docs/assemblies.md "Blocks side by side"): a block can turn
+    past ``eta`` toward a neighbour only with it, so the row has collapsed when its end block
+    on the side of the rotation (block ``n - 1`` for ``theta > 0``, block 0 for
+    ``theta < 0``) is past ``eta`` rotating outward."""
     over = jnp.zeros((), bool)
+    if p.row:
+        for k, sign in ((p.n - 1, 1.0), (0, -1.0)):
+            th, w = sign * st.theta[k], sign * st.w[k]
+            over = over | ((th > p.eta[k]) & (w > 0))
+        return over
     for k in range(p.n):
         th, w = st.theta[k], st.w[k]
         over = over | ((jnp.abs(th) > p.eta[k]) & (th * w > 0))
@@ -1049,6 +1117,26 @@ def initial_assembly_state(
     sink of :func:`rockjax.dem.initial_state`, computed by it for a block of block 0's shape
     and the total weight); each bed joint settles uniformly under the weight above it. The
     return walls (one-sided ``p``) just touch the back faces at ``gap = 0``."""
+    n_fs = 1 if joint.face else joint.n_sub
+    zero = jnp.zeros(())
+    if p.row:  # each block on its own ground joint, upright (theta0 = 0, checked)
+        states = [
+            initial_state(dem_params(blk, joint=joint, phi_deg=45.0), 0.0)
+            for blk in assembly.blocks
+        ]
+        n = p.n
+        return AssemblyState(
+            x=tuple(s0.x + p.x0[k] for k, s0 in enumerate(states)),
+            y=tuple(s0.y for s0 in states),
+            c=tuple(s0.c for s0 in states),
+            s=tuple(s0.s for s0 in states),
+            vx=(zero,) * n,
+            vy=(zero,) * n,
+            w=(zero,) * n,
+            theta=(zero,) * n,
+            theta_max=(zero,) * n,
+            fs=tuple((zero,) * n_fs for _ in p.links),
+        )
     weight = sum(b.m for b in assembly.blocks) * G + assembly.top_load
     proxy = _carrying(assembly.blocks[0], weight)
     s0 = initial_state(dem_params(proxy, joint=joint, phi_deg=45.0), theta0)
@@ -1065,8 +1153,6 @@ def initial_assembly_state(
         dv = 0.5 * p.h[k - 1] + 0.5 * p.h[k] - sink
         xs.append(xs[-1] + du * c + dv * s)
         ys.append(ys[-1] - du * s + dv * c)
-    zero = jnp.zeros(())
-    n_fs = 1 if joint.face else joint.n_sub
     n = p.n
     return AssemblyState(
         x=tuple(xs),
@@ -1666,8 +1752,21 @@ def _carrying(blk: Block, weight) -> Block:
 def _check_theta0(theta0, assembly: Assembly, mode: str = "two_sided"):
     check_scalar("theta0", theta0, "rad", "e.g. theta0=0.01.")
     th = concrete(theta0)
+    if assembly.layout == "row" and mode == "one_sided":
+        raise ValueError(
+            "mode='one_sided' puts every block's back face on a return wall, which a row of "
+            "blocks side by side does not have (only its first block's back face would meet "
+            "it); use mode='two_sided' for a row, or stack the blocks (rj.Assembly.stack)."
+        )
     if th is None:
         return
+    if assembly.layout == "row" and th != 0.0:
+        raise ValueError(
+            f"theta0={float(th):.4g} rad: a row of blocks side by side starts upright, each "
+            "block on its own ground joint (a rigid tilt would lift the blocks off the "
+            "ground); leave theta0=0 and set it rocking with a ground motion, e.g. "
+            "rj.GroundMotion.ricker(...)."
+        )
     if mode == "one_sided" and th < 0:
         raise ValueError(
             f"theta0={float(th):.4g} rad: a facade (mode='one_sided') leans on its return walls "

@@ -328,11 +328,26 @@ def _mechanisms(assembly: Assembly):
     Free top: each sub-stack above interface ``k`` about that interface's +x toe (``k = 0``
     is :func:`rockjax.collapse_multiplier`'s ``"stack"``, ``k = n - 1`` its ``"top"``).
     Restrained top, two blocks: the ``"hinge"`` (both centroids move ``h_0 / 2`` per unit
-    rotation of block 0, whose top moves ``h_0``); more blocks: no closed form (NaN)."""
+    rotation of block 0, whose top moves ``h_0``); more blocks: no closed form (NaN). A row
+    of touching blocks side by side: the blocks ``j .. n-1`` each about its own toe
+    (``"row"`` of :func:`rockjax.collapse_multiplier`; centroids move ``h_k / 2`` per unit
+    rotation, the tallest top ``max h_k``)."""
     blocks = assembly.blocks
     n = len(blocks)
     m = [float(b.m) for b in blocks]
     h = [float(b.h) for b in blocks]
+    if assembly.layout == "row":
+        # blocks j..n-1 each about its own toe: centroids move h_k / 2 per unit rotation
+        out = []
+        for j in range(n):
+            ratio = sum(m[k] * 0.5 * h[k] for k in range(j, n)) / sum(m) / max(h[j:])
+            num = sum(m[k] * float(blocks[k].b) for k in range(j, n))
+            out.append((num / sum(m[k] * h[k] for k in range(j, n)), ratio))
+        try:
+            collapse_multiplier(assembly, "row")  # (refuses a row with gaps)
+        except ValueError:
+            return [(math.nan, out[0][1])]
+        return out
     xs = [float(x) for x in assembly.x_offset]
     total = sum(m)
     p_top = float(assembly.top_load)
@@ -369,7 +384,7 @@ def _pushover_assembly(assembly, beta, d_over_b, duration, n_out, joint, phi_deg
     total = sum(masses)
     weight = total * G
     mechs = _mechanisms(assembly)
-    lam_rigid, ratio = min(mechs, key=lambda v: v[0]) if n > 1 else mechs[0]
+    lam_rigid, ratio = min(mechs, key=lambda v: v[0]) if len(mechs) > 1 else mechs[0]
     interval = duration / (n_out - 1)
     n_settle = math.ceil(SETTLE_FRACTION * (n_out - 1))
     t_settle = n_settle * interval
