@@ -151,7 +151,7 @@ class AssemblyState(eqx.Module):
 
 class AssemblyResponse(eqx.Module):
     """A simulated history of an assembly, sampled at ``t``; the last axis of the per-block
-    series is the block (bottom to top).
+    series is the block (bottom to top; from -x to +x in a row).
 
     Attributes:
         t: Sample times [s].
@@ -172,10 +172,11 @@ class AssemblyResponse(eqx.Module):
             ``energy - work_wall`` is conserved without damping, slip or ground motion;
             zeros for a fixed wall; else None.
         normal_forces: With ``save=("forces",)``: the normal force of each interface [N]
-            (``time x interface``; interface 0 the ground joint, ``k`` the bed joint between
-            blocks ``k - 1`` and ``k``), the resultant over the face of springs and dashpots,
-            positive in compression, along the lower body's normal (the ground's: vertical);
-            else None.
+            (``time x interface``; in a stack interface 0 the ground joint, ``k`` the bed
+            joint between blocks ``k - 1`` and ``k``; in a row the order of
+            :attr:`rockjax.Assembly.interfaces`), the resultant over the face of springs and
+            dashpots, positive in compression, along the lower body's normal (the ground's:
+            vertical); else None.
         shear_forces: With ``"forces"``: the shear force of each interface [N] (springs and
             dashpots), along the lower body's tangent (the ground's: +x), on the upper block;
             else None.
