@@ -141,7 +141,7 @@ def test_pushover_converges_to_the_row_mechanism_with_stiffness():
     """Reference: the same limit analysis; stiffer joints bring the DEM's peak to it (the
     rigid limit): within 2 % at E = 1.8e12 Pa, closer at each tenfold stiffness."""
     errs = [abs(p / lam - 1.0) for p, lam in (_push(E) for E in (1.8e10, 1.8e11, 1.8e12))]
-    # (about 6 min: the step shrinks as sqrt(E))
+    # (about 20 min: the step shrinks as 1 / sqrt(E))
     assert errs[0] > errs[1] > errs[2] and errs[2] < 0.02, errs
 
 
