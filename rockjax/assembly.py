@@ -11,8 +11,9 @@ Every bed joint takes the joint stiffness of the block above it (``j_kn = E/h``,
 that of :func:`rockjax.simulate_dem`. A row (:meth:`Assembly.row`): every block stands on the
 ground (interfaces ``0 .. n-1``, its ground joint), and block ``k`` meets block ``k - 1`` on a
 head joint (interface ``n - 1 + k``): the overlap of block ``k``'s -x face with block
-``k - 1``'s +x face, fixed in block ``k``'s frame, stiffness ``E/b`` of block ``k`` (the
-block's deformability across the joint, as ``E/h`` across a bed joint).
+``k - 1``'s +x face, fixed in block ``k``'s frame, normal stiffness ``E/b`` of block ``k``
+(the block's deformability across the joint, as ``E/h`` across a bed joint), smooth (no
+shear).
 """
 
 from __future__ import annotations
@@ -144,8 +145,9 @@ class Assembly(eqx.Module):
     def row(cls, blocks, *, x_offset=None) -> Assembly:
         """Stand ``blocks`` side by side on the ground, from -x to +x: the leaves of a
         multi-leaf wall, or blocks leaning on each other. Each block has its ground joint;
-        neighbours touch (or, with ``x_offset``, face each other across a gap) on a head joint,
-        with the contact law of every joint (docs/assemblies.md, "Blocks side by side").
+        neighbours touch (or, with ``x_offset``, face each other across a gap) on a smooth head
+        joint: the normal contact law of every joint, no shear spring or shear dashpot
+        (docs/assemblies.md, "Blocks side by side", says why).
 
         Args:
             blocks: A sequence of :class:`rockjax.Block`, from -x to +x.
