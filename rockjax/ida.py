@@ -871,6 +871,8 @@ def _run_chunk(
     ``support``: None, or an assembly's base acceleration (and top restraint's ``(u, v)``) per
     record at scale 1 (:func:`_support_histories`), scaled likewise."""
 
+    common = dict(beta=beta, mode=mode, gap=gap, dt=dt_bound, joint=joint, throw=False)
+
     def one(i, s):
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
         wall_motion = None if wall is None else (s * wall[0][i], s * wall[1][i])
@@ -882,19 +884,10 @@ def _run_chunk(
                     kw["support_motion"] = (s * support[1][i], s * support[2][i])
             if wall_motion is not None:
                 kw["wall_motion"] = wall_motion
-            r = simulate_assembly(
-                block,
-                motion,
-                beta=beta,
-                mode=mode,
-                gap=gap,
-                dt=dt_bound,
-                joint=joint,
-                throw=False,
-                **kw,
-            )
+            r = simulate_assembly(block, motion, **common, **kw)
             top = block.blocks[-1]
-            d = r.x[:, -1] - block.x_offset[-1] + 0.5 * top.h * jnp.sin(r.theta[:, -1])
+            # (r.x is already relative to the block's rest position)
+            d = r.x[:, -1] + 0.5 * top.h * jnp.sin(r.theta[:, -1])
             ok = r.status == STATUS_OK
             return {
                 "max_d_over_b": jnp.where(ok, jnp.max(jnp.abs(d)) / block.blocks[0].b, jnp.nan),
@@ -906,12 +899,7 @@ def _run_chunk(
             r = simulate_dem(
                 block,
                 motion,
-                beta=beta,
-                mode=mode,
-                gap=gap,
-                dt=dt_bound,
-                joint=joint,
-                throw=False,
+                **common,
                 **({} if wall_motion is None else {"wall_motion": wall_motion}),
             )
             d_max = r.extras["d_max"]

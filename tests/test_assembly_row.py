@@ -210,3 +210,26 @@ def test_row_jit_and_vmap_over_records():
 def test_row_bad_input(make, match):
     with pytest.raises(ValueError, match=match):
         make()
+
+
+def test_row_ida_equals_single_runs():
+    """Reference: rj.simulate_assembly of the row on the same (zero-padded) record. The IDA's
+    ``max_d_over_b`` is the +x end block's top displacement from its rest position over block
+    0's ``b``: a block standing off x = 0 (every block of a row but the first) is measured from
+    its own rest position (the IDA subtracted x_offset from displacements that were already
+    relative to it)."""
+    row = Assembly.row([SLENDER, SQUAT])
+    beta = float(rj.beta_dejong(SQUAT))
+    rec = rj.GroundMotion(ag=PULSE.ag[: int(1.2 / PULSE.dt)], dt=PULSE.dt, name="pulse")
+    ds = rj.ida(row, [rec], [1.0], beta=beta, tail=0.0, progress=False)
+    n = int(round(float(ds.attrs["t_end"]) / rec.dt)) + 1
+    ag = np.zeros(n)
+    ag[: rec.n] = np.asarray(rec.ag)
+    dt = stable_dt_assembly(row, beta)
+    r = simulate_assembly(row, rj.GroundMotion(ag=ag, dt=rec.dt), beta=beta, dt=dt)
+    d = np.asarray(r.x[:, -1]) + 0.5 * float(SQUAT.h) * np.sin(np.asarray(r.theta[:, -1]))
+    assert float(np.max(np.abs(d))) > 1e-5  # it moved
+    expect = float(np.max(np.abs(d))) / float(SLENDER.b)
+    assert float(ds.max_d_over_b[0, 0]) == pytest.approx(expect, rel=VMAP_RTOL)
+    theta = float(np.max(np.asarray(r.theta_max) / np.asarray(r.eta)))
+    assert float(ds.max_theta_over_eta[0, 0]) == pytest.approx(theta, rel=VMAP_RTOL)
