@@ -367,6 +367,13 @@ def collapse_multiplier(assembly: Assembly, mechanism: str = "stack"):
 
 def _row_multiplier(assembly: Assembly):
     """The ``"row"`` mechanism of :func:`collapse_multiplier` (a JAX scalar)."""
+    return jnp.min(jnp.stack(row_multipliers(assembly)))
+
+
+def row_multipliers(assembly: Assembly) -> list:
+    """The multipliers ``lambda_j`` [-] of the row's sub-mechanisms, ``j = 0 .. n-1`` (the
+    blocks ``j..n-1`` each about its own +x toe, :func:`collapse_multiplier`'s ``"row"``), as
+    JAX scalars. Raises ValueError for a row with gaps between its blocks."""
     blocks = assembly.blocks
     for k in range(1, len(blocks)):
         vals = [concrete(v) for v in (assembly.x_offset[k - 1], assembly.x_offset[k])]
@@ -386,4 +393,4 @@ def _row_multiplier(assembly: Assembly):
         num = sum(w[k] * blocks[k].b for k in range(j, len(blocks)))
         den = sum(w[k] * blocks[k].h for k in range(j, len(blocks)))
         lams.append(jnp.asarray(num / den, float))
-    return jnp.min(jnp.stack(lams))
+    return lams

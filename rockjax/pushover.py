@@ -20,7 +20,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ._checks import check_choice, check_nonnegative, check_positive
-from .assembly import Assembly, collapse_multiplier
+from .assembly import Assembly, collapse_multiplier, row_multipliers
 from .block import Block
 from .constants import G
 from .contact import Joint
@@ -338,16 +338,14 @@ def _mechanisms(assembly: Assembly):
     h = [float(b.h) for b in blocks]
     if assembly.layout == "row":
         # blocks j..n-1 each about its own toe: centroids move h_k / 2 per unit rotation
-        out = []
-        for j in range(n):
-            ratio = sum(m[k] * 0.5 * h[k] for k in range(j, n)) / sum(m) / max(h[j:])
-            num = sum(m[k] * float(blocks[k].b) for k in range(j, n))
-            out.append((num / sum(m[k] * h[k] for k in range(j, n)), ratio))
+        ratios = [
+            sum(m[k] * 0.5 * h[k] for k in range(j, n)) / sum(m) / max(h[j:]) for j in range(n)
+        ]
         try:
-            collapse_multiplier(assembly, "row")  # (refuses a row with gaps)
-        except ValueError:
-            return [(math.nan, out[0][1])]
-        return out
+            lams = row_multipliers(assembly)
+        except ValueError:  # a row with gaps: no rigid mechanism from rest
+            return [(math.nan, ratios[0])]
+        return [(float(lam), ratio) for lam, ratio in zip(lams, ratios)]
     xs = [float(x) for x in assembly.x_offset]
     total = sum(m)
     p_top = float(assembly.top_load)
