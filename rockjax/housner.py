@@ -83,10 +83,10 @@ after starting away from it.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Any
 
-import diffrax
 import equinox as eqx
 import equinox.internal as eqxi
 import jax
@@ -102,6 +102,7 @@ from ._checks import (
     check_series_pair,
     concrete,
 )
+from ._lazy import lazy_module
 from .block import Block
 from .compilation import bucket_length, is_traced, notice_once, pad_to
 from .constants import G
@@ -116,6 +117,10 @@ from .response import (
     Response,
 )
 from .three_branch import ThreeBranchFit, ThreeBranchLaw
+
+# loaded on first use (rockjax/_lazy.py): the solver reads diffrax's Tsit5 tableau and its
+# adjoint classes, and the import (with optimistix and lineax) took a quarter of `import rockjax`
+diffrax = lazy_module("diffrax")
 
 MODES = ("two_sided", "one_sided")
 
@@ -155,14 +160,19 @@ _N_BISECT = 6  # brackets the Hermite root to 1/64 of the step before Newton pol
 _N_NEWTON = 3  # from within 1/128, three Newton steps reach ~1e-8 of the step even when sharp
 _TINY = 1e-30  # guards divisions in masked branches so their (unused) gradients stay finite
 
-# Tsit5 (5th order) is "ssal": stages 1-6 give y1, its 7th stage only serves FSAL and the
-# error estimate. _A[i] weighs the slopes of stages 0..i-1 for stage i; _B gives y1.
-_TABLEAU = diffrax.Tsit5.tableau
-_C = np.concatenate([[0.0], _TABLEAU.c[:-1]])
-_A = np.zeros((6, 6))
-for _i, _row in enumerate(_TABLEAU.a_lower[:-1]):
-    _A[_i + 1, : _row.size] = _row
-_B = np.asarray(_TABLEAU.b_sol[:-1], dtype=float)
+
+@functools.cache
+def _tsit5():
+    """``(A, C, B)`` of diffrax's Tsit5 tableau. Tsit5 (5th order) is "ssal": stages 1-6 give
+    y1, its 7th stage only serves FSAL and the error estimate. ``A[i]`` weighs the slopes of
+    stages 0..i-1 for stage i, ``C[i]`` is its time, ``B`` gives y1."""
+    tableau = diffrax.Tsit5.tableau
+    c = np.concatenate([[0.0], tableau.c[:-1]])
+    a = np.zeros((6, 6))
+    for i, row in enumerate(tableau.a_lower[:-1]):
+        a[i + 1, : row.size] = row
+    return a, c, np.asarray(tableau.b_sol[:-1], dtype=float)
+
 
 # Taylor coefficients of sin(x)/x and cos(x) in x^2; see _sincos.
 _SIN = tuple((-1) ** k / math.factorial(2 * k + 1) for k in range(12))
@@ -425,14 +435,15 @@ def _rk_step(accel, t0, h, theta0, theta_dot0):
     """One explicit Runge-Kutta step (diffrax's Tsit5 tableau, unrolled) of
     ``(theta, theta_dot)' = (theta_dot, accel(t, theta))`` from ``t0`` over ``h`` [s]."""
     k_th, k_thd = [], []  # stage slopes of theta (the stage theta_dot) and of theta_dot
-    for a_i, c_i in zip(_A, _C):
+    tab_a, tab_c, tab_b = _tsit5()
+    for a_i, c_i in zip(tab_a, tab_c):
         theta = theta0 + h * sum(float(a) * k for a, k in zip(a_i, k_th))
         theta_dot = theta_dot0 + h * sum(float(a) * k for a, k in zip(a_i, k_thd))
         k_th.append(theta_dot)
         k_thd.append(accel(t0 + float(c_i) * h, theta))
     return (
-        theta0 + h * sum(float(b) * k for b, k in zip(_B, k_th)),
-        theta_dot0 + h * sum(float(b) * k for b, k in zip(_B, k_thd)),
+        theta0 + h * sum(float(b) * k for b, k in zip(tab_b, k_th)),
+        theta_dot0 + h * sum(float(b) * k for b, k in zip(tab_b, k_thd)),
     )
 
 

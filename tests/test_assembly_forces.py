@@ -74,10 +74,12 @@ def test_forces_at_rest_carry_the_weight_above(joint):
     np.testing.assert_allclose(fn, weight * np.cos(t_l), rtol=STATIC_RTOL)
     np.testing.assert_allclose(ft, -weight * np.sin(t_l), rtol=0, atol=STATIC_RTOL * weight[0])
     assert np.max(np.abs(ft)) > 1e-6 * weight[0]  # (the tilt matters at this tolerance)
-    plain = simulate_assembly(wall, **kw)
-    assert plain.normal_forces is None and plain.shear_forces is None
-    # (the same step; the forces in the scan's carry change XLA's fusion: round-off)
-    np.testing.assert_allclose(plain.theta, r.theta, rtol=0, atol=1e-10 * float(wall.blocks[0].eta))
+    if joint.face:  # saving the forces leaves the run alone (one joint law is enough)
+        plain = simulate_assembly(wall, **kw)
+        assert plain.normal_forces is None and plain.shear_forces is None
+        # (the same step; the forces in the scan's carry change XLA's fusion: round-off)
+        atol = 1e-10 * float(wall.blocks[0].eta)
+        np.testing.assert_allclose(plain.theta, r.theta, rtol=0, atol=atol)
 
 
 def test_shear_under_constant_base_acceleration_is_mass_above_times_a():

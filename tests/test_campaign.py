@@ -19,7 +19,7 @@ import rockjax as rj
 pytest.importorskip("distributed")
 
 # Long enough per part that the kill lands between parts, short enough for the suite.
-DURATION, N_SCALES = 4.0, 16
+DURATION, N_SCALES = 4.0, 10
 SCRIPT = textwrap.dedent(
     f"""
     import sys

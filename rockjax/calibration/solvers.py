@@ -4,30 +4,37 @@ L-BFGS fit that stalled."""
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
+from .._lazy import lazy_module
 from .problems import CalibrationProblem, stats_batch
 
-# L-BFGS with a backtracking (Armijo) line search: its trial points need the loss only, so
-# one iteration is one forward-mode derivative plus (usually) one plain run, and the compiled
-# program holds one copy of each (a zoom line search holds four derivative copies: ~3x the
-# compile time).
-_OPT = optax.lbfgs(
-    memory_size=5,
-    linesearch=optax.scale_by_backtracking_linesearch(
-        max_backtracking_steps=12, decrease_factor=0.5
-    ),
-)
+optax = lazy_module("optax")  # loaded on first use (rockjax/_lazy.py): a fit needs it
+
+
+@functools.cache
+def _optimizer():
+    # L-BFGS with a backtracking (Armijo) line search: its trial points need the loss only,
+    # so one iteration is one forward-mode derivative plus (usually) one plain run, and the
+    # compiled program holds one copy of each (a zoom line search holds four derivative
+    # copies: ~3x the compile time).
+    return optax.lbfgs(
+        memory_size=5,
+        linesearch=optax.scale_by_backtracking_linesearch(
+            max_backtracking_steps=12, decrease_factor=0.5
+        ),
+    )
 
 
 @eqx.filter_jit
 def _init(u):
     # strong types, as _step returns them (a weakly typed count would trace _step again)
-    return jax.tree.map(lambda x: jnp.asarray(x, x.dtype), _OPT.init(u))
+    return jax.tree.map(lambda x: jnp.asarray(x, x.dtype), _optimizer().init(u))
 
 
 @eqx.filter_jit
@@ -40,7 +47,7 @@ def _step(loss, params_of, u, state, problem):
     def fn(x):
         return loss(x, problem)
 
-    updates, state = _OPT.update(grad, state, u, value=value, grad=grad, value_fn=fn)
+    updates, state = _optimizer().update(grad, state, u, value=value, grad=grad, value_fn=fn)
     n_ls = optax.tree_utils.tree_get(state, "num_linesearch_steps")
     failed = optax.tree_utils.tree_get(state, "decrease_error") > 0
     u_new = optax.apply_updates(u, updates)
