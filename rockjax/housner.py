@@ -719,6 +719,12 @@ def _pass(
       ``tau' = tau - theta/theta_dot`` on the true trajectory with the state advanced linearly
       to ``tau'``, the impact map and the rest rule; the state holds at ``tau'``.
 
+    A pass that finds every run of the batch at rest and not lifting in ``[ta, t1]``, or
+    overturned, is a quiet pass (:func:`_quiet_pass`: the state moves to ``t1``, a block
+    resting on a moving wall with the wall); the rest of the pass (:func:`_active_pass`) would
+    change nothing else. Most passes of an IDA are quiet (the low scales never lift), and a
+    ``cond`` skips their flight, crossing and impact work.
+
     Returns the state, the time it holds at and the hit for the next pass.
     """
     pending = hit.pending
@@ -733,6 +739,57 @@ def _pass(
         )
     lifts, t_up, s_up = _uplift(ta, t1, line, params, one_sided, excess)
     lift_now = (y.s == 0) & lifts & (y.overturned == 0) & ~pending
+    quiet = ~pending & ~lift_now & ((y.s == 0) | (y.overturned != 0))
+    # (a moving wall's state at t1, as the excess reads it: one evaluation outside the cond)
+    wall_t1 = record.wall(t1, t_mid)[:2] if moving_wall else None
+    return jax.lax.cond(
+        eqxi.unvmap_all(quiet),
+        lambda: _quiet_pass(y, ta, hit, t1, wall_t1),
+        lambda: _active_pass(
+            y, ta, hit, t1, line, record, params, one_sided, (excess, t_up, s_up, lift_now)
+        ),
+    )
+
+
+def _quiet_pass(y: _State, ta, hit: _Hit, t1, wall_t1):
+    """:func:`_pass` where no run is pending, rocking or lifting: the state moves to ``t1``; a
+    block at rest on a moving wall rides on it (its rotation and rate become the wall's at
+    ``t1``, ``wall_t1``; None for a fixed wall). The same numbers as the active pass gives
+    such a run."""
+    ta_new = t1 + jnp.zeros_like(ta)
+    if wall_t1 is None:
+        return y, ta_new, hit
+    riding = (y.s == 0) & (y.overturned == 0)
+    wall_b, rate_b = wall_t1
+    y_new = eqx.tree_at(
+        lambda z: (z.theta, z.theta_dot, z.theta_max),
+        y,
+        (
+            _where(riding, wall_b, y.theta),
+            _where(riding, rate_b, y.theta_dot),
+            _where(riding, jnp.maximum(y.theta_max, jnp.abs(wall_b)), y.theta_max),
+        ),
+    )
+    return y_new, ta_new, hit
+
+
+def _active_pass(
+    y: _State,
+    ta,
+    hit: _Hit,
+    t1,
+    line: _Line,
+    record: _Record,
+    params: _Params,
+    one_sided: bool,
+    uplift,
+):
+    """:func:`_pass` from its uplift check on (``uplift``: the wall's excess at ``ta`` and
+    ``t1`` or None, the uplift time and pivot, and whether the block lifts now)."""
+    excess, t_up, s_up, lift_now = uplift
+    pending = hit.pending
+    moving_wall = record.wall_theta is not None
+    t_mid = 0.5 * (ta + t1)
     s = _where(lift_now, s_up, y.s)
     ta = _where(lift_now, t_up, ta)
     rocking = (s != 0) & (y.overturned == 0)
