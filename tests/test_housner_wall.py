@@ -170,6 +170,32 @@ def test_sinusoidal_wall_matches_an_event_driven_reference(block, record):
     assert float(resp.theta_max) == pytest.approx(peak, rel=REF_RTOL_PEAK)
 
 
+def test_a_facade_at_rest_rides_on_its_wall(block):
+    """Reference: the wall's own rotation u / h. With no ground motion and a wall that moves
+    gently (peak acceleration 0.08 m/s^2, far below what would pull it away from the block),
+    every pass is a quiet one: the facade never lifts off its wall and turns with it, sample for
+    sample, alone and in a batch beside a run that rocks (whose passes are not quiet)."""
+    n = 301
+    u, v = _wall_from_acceleration(_sine_wall(n, amplitude=5e-4, f=2.0), DT)
+    assert np.max(u) > 9e-4  # it moved (2 A at the top of its cycle)
+    still = rj.GroundMotion(ag=np.zeros(n), dt=DT)
+    resp = rj.simulate_housner(block, still, mode="one_sided", e=0.8, wall_motion=(u, v))
+    assert int(resp.extras["n_impacts"][-1]) == 0
+    np.testing.assert_allclose(np.asarray(resp.theta), u / float(block.h), rtol=1e-12, atol=1e-16)
+    assert float(resp.theta_max) == pytest.approx(np.max(np.abs(u)) / float(block.h), rel=1e-12)
+    # in a batch beside a run that rocks, the resting run still rides on its wall
+    shaken = rj.GroundMotion(ag=-3.0 * np.sin(2 * np.pi * np.arange(n) * DT), dt=DT)
+
+    def run(ag):
+        gm = rj.GroundMotion(ag=ag, dt=DT)
+        r = rj.simulate_housner(block, gm, mode="one_sided", e=0.8, wall_motion=(u, v), throw=False)
+        return r.theta, r.theta_max
+
+    theta, peak = jax.vmap(run)(jnp.stack([jnp.asarray(still.ag), jnp.asarray(shaken.ag)]))
+    assert float(peak[1]) > 0.1 * float(block.eta)  # the other run rocked
+    np.testing.assert_allclose(np.asarray(theta[0]), u / float(block.h), rtol=1e-12, atol=1e-16)
+
+
 def test_jit_vmap_and_grad_over_the_wall_amplitude(block, record):
     a_w = _sine_wall(record.n)
     u, v = (jnp.asarray(x) for x in _wall_from_acceleration(a_w, DT))
