@@ -746,7 +746,7 @@ def _pass(
         eqxi.unvmap_all(quiet),
         lambda: _quiet_pass(y, ta, hit, t1, wall_t1),
         lambda: _active_pass(
-            y, ta, hit, t1, line, record, params, one_sided, (excess, t_up, s_up, lift_now)
+            y, ta, hit, t1, line, record, params, one_sided, (excess, t_up, s_up, lift_now, wall_t1)
         ),
     )
 
@@ -785,8 +785,9 @@ def _active_pass(
     uplift,
 ):
     """:func:`_pass` from its uplift check on (``uplift``: the wall's excess at ``ta`` and
-    ``t1`` or None, the uplift time and pivot, and whether the block lifts now)."""
-    excess, t_up, s_up, lift_now = uplift
+    ``t1`` or None, the uplift time and pivot, whether the block lifts now, and the wall's
+    rotation and rate at ``t1`` or None)."""
+    excess, t_up, s_up, lift_now, wall_t1 = uplift
     pending = hit.pending
     moving_wall = record.wall_theta is not None
     t_mid = 0.5 * (ta + t1)
@@ -821,7 +822,7 @@ def _active_pass(
     g0, dg0, g1, dg1 = u0, du0, u1, du1
     if moving_wall:
         wall_a, rate_a, _ = record.wall(ta, t_mid)
-        wall_b, rate_b, _ = record.wall(t1, t_mid)
+        wall_b, rate_b = wall_t1
         g0, dg0 = theta_a - wall_a, h * (theta_dot_a - rate_a)
         g1, dg1 = theta_f - wall_b, h * (theta_dot_f - rate_b)
     x_turn, g_turn = jax.lax.cond(
