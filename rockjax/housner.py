@@ -177,6 +177,8 @@ def _tsit5():
 # Taylor coefficients of sin(x)/x and cos(x) in x^2; see _sincos.
 _SIN = tuple((-1) ** k / math.factorial(2 * k + 1) for k in range(12))
 _COS = tuple((-1) ** k / math.factorial(2 * k) for k in range(13))
+# |x| [rad] up to which _sincos(x, small=True) holds (truncation below x^11/11! < 3e-19).
+_SMALL_ANGLE = 0.1
 
 
 # --------------------------------------------------------------------------- helpers
@@ -294,6 +296,51 @@ class _Line(eqx.Module):
         return self.a0 + dt * self.da, G + self.v0 + dt * self.dv
 
 
+def _hermite(r, terms):
+    """The cubic Hermite interpolant of ``terms = (p0, m0, p1, m1)`` (values at ``r = 0, 1``
+    and slopes in ``r``) and its first two derivatives in ``r``, at ``r``. A Python float
+    ``r`` drops the terms whose weight is zero (a table of whole arrays costs less)."""
+    r2, r3 = r * r, r * r * r
+    weights = (
+        (2 * r3 - 3 * r2 + 1, r3 - 2 * r2 + r, 3 * r2 - 2 * r3, r3 - r2),
+        (6 * r2 - 6 * r, 3 * r2 - 4 * r + 1, 6 * r - 6 * r2, 3 * r2 - 2 * r),
+        (12 * r - 6, 6 * r - 4, 6 - 12 * r, 6 * r - 2),
+    )
+
+    def combine(ws):
+        if not isinstance(r, float):
+            return sum(w * x for w, x in zip(ws, terms))
+        return sum(x if w == 1.0 else w * x for w, x in zip(ws, terms) if w != 0.0)
+
+    return tuple(combine(ws) for ws in weights)
+
+
+class _WallStep(eqx.Module):
+    """A moving wall on one solver step ``[t0, t0 + h]``: the cubic Hermite fit of its
+    rotation and rate at the step's ends (:meth:`_Record.segment`), which is the wall's cubic
+    on the sample interval holding the step (:meth:`_Record.wall`), without its gathers."""
+
+    t0: Array  # [s]
+    h: Array  # [s]
+    terms: tuple  # (theta at t0, rate at t0 * h, theta at t0 + h, rate there * h)
+
+    def at(self, t):
+        """``(theta_w, theta_w', theta_w'')`` at time ``t`` in the step [rad, rad/s, rad/s^2]."""
+        theta, rate, accel = _hermite((t - self.t0) / self.h, self.terms)
+        return theta, rate / self.h, accel / (self.h * self.h)
+
+
+class _Given(eqx.Module):
+    """Forcing already evaluated where it is needed: ``at`` ignores the time."""
+
+    a_g: Array  # [m/s^2]
+    g_eff: Array | float  # [m/s^2]
+
+    def at(self, t):
+        """``(a_g, g_eff)`` [m/s^2]."""
+        return self.a_g, self.g_eff
+
+
 class _Record(eqx.Module):
     """The whole record on its uniform grid ``t_i = i dt``, linear between samples.
 
@@ -308,43 +355,97 @@ class _Record(eqx.Module):
     # rotation theta_w = u_top / h [rad] and rate [rad/s] at the samples, or None.
     wall_theta: Array | None = None
     wall_rate: Array | None = None
-    # With a moving wall: the restoring acceleration A_+ [rad/s^2] of a block resting on it
-    # at each sample (on the interval the sample starts), computed once per run for the rest
-    # rule's look-ahead (``with_wall_restoring``).
-    wall_restoring: Array | None = None
+    # With a moving wall, computed once per run (``with_wall_steps``): for every solver step,
+    # the uplift excess (``_wall_excess``) of a block resting on the wall at the step's start
+    # and at its end, on the step (the wall's acceleration may jump at a sample), shape
+    # (2, (n - 1) n_sub). A pass reads its uplift check from its step's column instead of
+    # evaluating the wall's cubic; the rest rule's look-ahead reads the first row.
+    wall_steps: Array | None = None
 
-    def wall(self, t, t_ref=None):
+    def wall(self, t):
         """``(theta_w, theta_w', theta_w'')`` at time ``t`` [rad, rad/s, rad/s^2]: the cubic
-        Hermite fit of the samples' rotation and rate on the interval holding ``t_ref``
-        (default ``t``; a solver step passes its midpoint, so that its ends use its own
-        interval: the wall's acceleration may jump at a sample), exact for a wall whose
-        acceleration is linear between samples."""
+        Hermite fit of the samples' rotation and rate on the interval holding ``t`` (at a
+        sample: the one it starts), exact for a wall whose acceleration is linear between
+        samples. (A solver step reads its own interval: :class:`_WallStep`.)"""
         n = self.wall_theta.shape[0]
         x = _clip(t / self.dt, 0.0, n - 1.0)
-        x_ref = x if t_ref is None else _clip(t_ref / self.dt, 0.0, n - 1.0)
-        i = jax.lax.stop_gradient(_clip(jnp.floor(x_ref), 0.0, n - 2.0))
+        i = jax.lax.stop_gradient(_clip(jnp.floor(x), 0.0, n - 2.0))
         r = x - i
         i = i.astype(jnp.int32)
         p0, p1 = self.wall_theta[i], self.wall_theta[i + 1]
         m0, m1 = self.wall_rate[i] * self.dt, self.wall_rate[i + 1] * self.dt
-        r2 = r * r
-        theta = (
-            (2 * r2 * r - 3 * r2 + 1) * p0
-            + (r2 * r - 2 * r2 + r) * m0
-            + (3 * r2 - 2 * r2 * r) * p1
-            + (r2 * r - r2) * m1
-        )
-        rate = (6 * r2 - 6 * r) * (p0 - p1) + (3 * r2 - 4 * r + 1) * m0 + (3 * r2 - 2 * r) * m1
-        accel = (12 * r - 6) * (p0 - p1) + (6 * r - 4) * m0 + (6 * r - 2) * m1
+        theta, rate, accel = _hermite(r, (p0, m0, p1, m1))
         return theta, rate / self.dt, accel / (self.dt * self.dt)
 
-    def with_wall_restoring(self, params: _Params) -> _Record:
-        """This record with ``wall_restoring`` filled in (a moving wall only): the rest rule
-        reads it at up to ``REST_HORIZON`` samples after every impact, one gather each instead
-        of the wall's cubic and the forcing at each."""
-        t = jnp.arange(self.wall_theta.shape[0]) * self.dt
-        a = -params.p2_over_g * params.cos_eta * _wall_excess(t, self, params, self)
-        return eqx.tree_at(lambda r: r.wall_restoring, self, a, is_leaf=lambda x: x is None)
+    def with_wall_steps(self, params: _Params, n_sub: int) -> _Record:
+        """This record with ``wall_steps`` filled in (a moving wall only), for ``n_sub``
+        solver steps per sample interval: the wall's cubic (:meth:`wall`) and the forcing at
+        every step end at once, from slices (no gathers)."""
+        dt = self.dt
+        terms = (  # p0, m0, p1, m1 of every interval, as in wall()
+            self.wall_theta[:-1],
+            self.wall_rate[:-1] * dt,
+            self.wall_theta[1:],
+            self.wall_rate[1:] * dt,
+        )
+        # (theta_w, rate, accel) at the fractions 0, 1/n_sub, ..., 1 of every interval
+        at = [_hermite(q / n_sub, terms) for q in range(n_sub + 1)]
+
+        def steps(columns):  # one value per interval and step in it: step by step
+            return jnp.stack(columns, axis=1).reshape(-1)
+
+        def ends(columns, samples):  # at the step ends (at the samples: the samples' own)
+            if n_sub == 1:
+                return samples
+            return jnp.concatenate([steps(columns), samples[-1:]])
+
+        def forcing(a):  # the record's linear interpolation
+            return ends([a[:-1] + (q / n_sub) * (a[1:] - a[:-1]) for q in range(n_sub)], a)
+
+        theta_w = ends([c[0] for c in at[:-1]], self.wall_theta)
+        # the wall's acceleration where each step starts and ends, inside its interval
+        accel_start = steps([c[2] for c in at[:-1]]) / (dt * dt)
+        accel_end = steps([c[2] for c in at[1:]]) / (dt * dt)
+        g_eff = G if self.ag_v is None else G + forcing(self.ag_v)
+        given = _Given(a_g=forcing(self.ag), g_eff=g_eff)
+        # (a wall's rotation is mostly a small angle: the sine's and cosine's shorter series)
+        free = jax.lax.cond(
+            jnp.max(jnp.abs(theta_w)) <= _SMALL_ANGLE,
+            lambda: _theta_ddot(None, theta_w, jnp.ones_like(theta_w), params, given, True),
+            lambda: _theta_ddot(None, theta_w, jnp.ones_like(theta_w), params, given),
+        )
+        k = params.p2_over_g * params.cos_eta
+        table = jnp.stack([(free[:-1] - accel_start) / k, (free[1:] - accel_end) / k])
+        return eqx.tree_at(lambda r: r.wall_steps, self, table, is_leaf=lambda x: x is None)
+
+    @property
+    def n_sub(self) -> int:
+        """Solver steps per sample interval of ``wall_steps`` (static: from the shapes)."""
+        return self.wall_steps.shape[1] // max(self.wall_theta.shape[0] - 1, 1)
+
+    def segment(self, k):
+        """The moving wall on solver step ``k`` (:class:`_WallStep`), from the two samples of
+        the interval holding it (two slices, no search)."""
+        n, n_sub = self.wall_theta.shape[0], self.n_sub
+        i = jnp.minimum(_floordiv(k, n_sub), n - 2)
+        theta2 = jax.lax.dynamic_slice_in_dim(self.wall_theta, i, 2)
+        rate2 = jax.lax.dynamic_slice_in_dim(self.wall_rate, i, 2) * self.dt
+        terms = (theta2[0], rate2[0], theta2[1], rate2[1])
+        r0 = _mod(k, n_sub).astype(float) / n_sub
+        dt_step = self.dt / n_sub
+        ends = [_hermite(r, terms) for r in (r0, r0 + 1.0 / n_sub)]
+        t0 = _step_time(k, n_sub, self.dt, dt_step)
+        return _WallStep(
+            t0,
+            dt_step,
+            (ends[0][0], ends[0][1] / n_sub, ends[1][0], ends[1][1] / n_sub),
+        )
+
+    def excess_at_samples(self, i):
+        """``_wall_excess`` [m/s^2] on the interval that starts at samples ``i`` (integers,
+        clipped to the record), from ``wall_steps``."""
+        n = self.wall_theta.shape[0]  # (the last sample: the last interval's start)
+        return self.wall_steps[0, _clip(i, 0, n - 2) * self.n_sub]
 
     def _eval(self, ys, t):
         n = ys.shape[0]
@@ -379,9 +480,10 @@ class _Record(eqx.Module):
 # --------------------------------------------------------------------------- physics
 
 
-@jax.custom_jvp
-def _sincos(x):
-    """``(sin x, cos x)`` from Taylor polynomials in ``x^2``: within 4e-16 for ``|x| <= 2`` rad.
+@functools.partial(jax.custom_jvp, nondiff_argnums=(1,))
+def _sincos(x, small: bool):
+    """``(sin x, cos x)`` from Taylor polynomials in ``x^2``: within 4e-16 for ``|x| <= 2`` rad,
+    or with ``small`` (five and six terms) for ``|x| <= _SMALL_ANGLE``.
 
     XLA's float64 sin and cos cost about 10 ns each per element on CPU and dominated the
     step; these polynomials cost a third of that. Rotations in use stay below
@@ -389,24 +491,25 @@ def _sincos(x):
     state is frozen at the end of that step. The derivative is the exact one, ``(cos, -sin)``,
     not that of the polynomials (smaller graphs under ``grad``, quicker to compile).
     """
+    sin_coefs, cos_coefs = (_SIN[:5], _COS[:6]) if small else (_SIN, _COS)
     x2 = x * x
-    s, c = _SIN[-1], _COS[-1]
-    for coef in _SIN[-2::-1]:
+    s, c = sin_coefs[-1], cos_coefs[-1]
+    for coef in sin_coefs[-2::-1]:
         s = s * x2 + coef
-    for coef in _COS[-2::-1]:
+    for coef in cos_coefs[-2::-1]:
         c = c * x2 + coef
     return x * s, c
 
 
 @_sincos.defjvp
-def _sincos_jvp(primals, tangents):
+def _sincos_jvp(small, primals, tangents):
     (x,), (dx,) = primals, tangents
-    sin_x, cos_x = _sincos(x)
+    sin_x, cos_x = _sincos(x, small)
     return (sin_x, cos_x), (cos_x * dx, -sin_x * dx)
 
 
-@jax.jit
-def _theta_ddot(t, theta, s, params: _Params, forcing):
+@functools.partial(jax.jit, static_argnames="small")
+def _theta_ddot(t, theta, s, params: _Params, forcing, small: bool = False):
     """Angular acceleration [rad/s^2] on pivot ``s = +-1`` (module docstring equation).
 
     Uses ``sin(s eta - theta)`` and ``cos(s eta - theta)`` expanded with ``s^2 = 1``, so each
@@ -416,7 +519,7 @@ def _theta_ddot(t, theta, s, params: _Params, forcing):
     unchanged).
     """
     ag, g_eff = forcing.at(t)
-    sin_th, cos_th = _sincos(theta)
+    sin_th, cos_th = _sincos(theta, small)
     s_sin_eta = s * params.sin_eta
     if params.law is None:
         return -params.p2_over_g * (
@@ -605,18 +708,19 @@ def _restoring(a_g, g_eff, params: _Params):
     return k * (g_eff * params.lam_up + a_g), k * (g_eff * params.lam_up - a_g)
 
 
-def _wall_excess(t, record: _Record, params: _Params, forcing, t_ref=None):
+def _wall_excess(t, wall, params: _Params, forcing):
     """How much faster than the wall [m/s^2, as ``theta_ddot / k``, ``k = p^2 cos(eta) / g``]
     a block resting against it at ``theta = theta_w(t)`` would accelerate away from it on its
     own (pivot +1): it leaves the wall when this turns positive. Without wall motion it is
-    ``-a_g - g_eff tan(eta)``, the fixed wall's uplift excess."""
-    theta_w, _, accel_w = record.wall(t, t_ref)
+    ``-a_g - g_eff tan(eta)``, the fixed wall's uplift excess. ``wall``: the wall's
+    ``(theta_w, theta_w', theta_w'')`` at ``t``."""
+    theta_w, _, accel_w = wall
     free = _theta_ddot(t, theta_w, jnp.ones_like(theta_w), params, forcing)
     return (free - accel_w) / (params.p2_over_g * params.cos_eta)
 
 
 def _rests(
-    t_imp, w, s_new, line: _Line, record: _Record, params: _Params, one_sided: bool, t_mid=None
+    t_imp, w, s_new, line: _Line, record: _Record, params: _Params, one_sided: bool, step=None
 ):
     """The rest rule after an impact at ``t_imp`` with rebound speed ``w = |theta_dot+|`` onto
     pivot ``s_new``. See docs/theory.md, "Housner rest and chatter rule".
@@ -643,7 +747,7 @@ def _rests(
     if record.wall_theta is None:
         ap0, am0 = _restoring(*line.at(t_imp), params)
     else:  # relative to the moving wall: A_+ = -(block's free acceleration - wall's)
-        ap0 = -k * _wall_excess(t_imp, record, params, line, t_mid)
+        ap0 = -k * _wall_excess(t_imp, step.at(t_imp), params, line)
         am0 = ap0
     e = params.e
     if one_sided:
@@ -666,13 +770,13 @@ def _rests(
     def restoring_at(t):
         if record.wall_theta is None:
             return _restoring(*record.at(t), params)
-        a = -k * _wall_excess(t, record, params, record)
+        a = -k * _wall_excess(t, record.wall(t), params, record)
         return a, a
 
     def restoring_samples(i):
         if record.wall_theta is None:
             return _restoring(*record.sample(i), params)
-        a = record.wall_restoring[_clip(i, 0, record.wall_restoring.shape[0] - 1)]
+        a = -k * record.excess_at_samples(i)
         return a, a
 
     stays = fits & keeps(*restoring_at(t_end), jnp.ones_like(fits))
@@ -703,6 +807,7 @@ def _pass(
     y: _State,
     ta,
     hit: _Hit,
+    k,
     t1,
     line: _Line,
     record: _Record,
@@ -720,57 +825,41 @@ def _pass(
       to ``tau'``, the impact map and the rest rule; the state holds at ``tau'``.
 
     A pass that finds every run of the batch at rest and not lifting in ``[ta, t1]``, or
-    overturned, is a quiet pass (:func:`_quiet_pass`: the state moves to ``t1``, a block
-    resting on a moving wall with the wall); the rest of the pass (:func:`_active_pass`) would
-    change nothing else. Most passes of an IDA are quiet (the low scales never lift), and a
-    ``cond`` skips their flight, crossing and impact work.
+    overturned, is a quiet pass: the state moves to ``t1``; the rest of the pass
+    (:func:`_active_pass`) would change nothing else. Most passes of an IDA are quiet (the low
+    scales never lift), and a ``cond`` skips their flight, crossing and impact work.
 
-    Returns the state, the time it holds at and the hit for the next pass.
+    A block at rest on a moving wall rides on it, but its state in the loop keeps the rotation
+    and rate it came to rest with: nothing in a pass reads them (a lift-off starts from the
+    wall's state), and :func:`_on_the_wall` puts the saved samples on the wall after the loop.
+    (Updated in every pass, they cost a quiet pass about a fifth of its time.)
+
+    ``k`` is the step in progress (from ``line.t0`` to ``t1``). Returns the state, the time it
+    holds at and the hit for the next pass.
     """
     pending = hit.pending
-    moving_wall = record.wall_theta is not None  # static: one-sided with a moving return wall
-    # (1) At rest: lift off when the forcing first exceeds the threshold in [ta, t1].
-    excess = None
-    t_mid = 0.5 * (ta + t1)  # the step's sample interval, for the wall's cubic
-    if moving_wall:
-        excess = (
-            _wall_excess(ta, record, params, line, t_mid),
-            _wall_excess(t1, record, params, line, t_mid),
-        )
-    lifts, t_up, s_up = _uplift(ta, t1, line, params, one_sided, excess)
-    lift_now = (y.s == 0) & lifts & (y.overturned == 0) & ~pending
-    quiet = ~pending & ~lift_now & ((y.s == 0) | (y.overturned != 0))
-    # (a moving wall's state at t1, as the excess reads it: one evaluation outside the cond)
-    wall_t1 = record.wall(t1, t_mid)[:2] if moving_wall else None
+    if record.wall_theta is None:
+        # (1) At rest: lift off when the forcing first exceeds the threshold in [ta, t1].
+        lifts, t_up, s_up = _uplift(ta, t1, line, params, one_sided)
+        lift_now = (y.s == 0) & lifts & (y.overturned == 0) & ~pending
+        quiet = ~pending & ~lift_now & ((y.s == 0) | (y.overturned != 0))
+        uplift, wall = (None, t_up, s_up, lift_now), None
+    else:  # one-sided with a moving return wall: the step's two columns of the wall table
+        column = jax.lax.dynamic_slice_in_dim(record.wall_steps, k, 1, axis=1)
+        excess_a, excess_b = column[0, 0], column[1, 0]
+        # The check from the table holds for a pass that starts at the step's start; one
+        # that starts later (after an impact inside the step) is never quiet.
+        from_start = ta == line.t0
+        lifts = _uplift(ta, t1, line, params, one_sided, (excess_a, excess_b))[0]
+        at_rest = (y.s == 0) & from_start & ~lifts
+        quiet = ~pending & (at_rest | (y.overturned != 0))
+        uplift = (excess_b, from_start, excess_a)
+        wall = k
     return jax.lax.cond(
         eqxi.unvmap_all(quiet),
-        lambda: _quiet_pass(y, ta, hit, t1, wall_t1),
-        lambda: _active_pass(
-            y, ta, hit, t1, line, record, params, one_sided, (excess, t_up, s_up, lift_now, wall_t1)
-        ),
+        lambda: (y, t1 + jnp.zeros_like(ta), hit),
+        lambda: _active_pass(y, ta, hit, t1, line, record, params, one_sided, uplift, wall),
     )
-
-
-def _quiet_pass(y: _State, ta, hit: _Hit, t1, wall_t1):
-    """:func:`_pass` where no run is pending, rocking or lifting: the state moves to ``t1``; a
-    block at rest on a moving wall rides on it (its rotation and rate become the wall's at
-    ``t1``, ``wall_t1``; None for a fixed wall). The same numbers as the active pass gives
-    such a run."""
-    ta_new = t1 + jnp.zeros_like(ta)
-    if wall_t1 is None:
-        return y, ta_new, hit
-    riding = (y.s == 0) & (y.overturned == 0)
-    wall_b, rate_b = wall_t1
-    y_new = eqx.tree_at(
-        lambda z: (z.theta, z.theta_dot, z.theta_max),
-        y,
-        (
-            _where(riding, wall_b, y.theta),
-            _where(riding, rate_b, y.theta_dot),
-            _where(riding, jnp.maximum(y.theta_max, jnp.abs(wall_b)), y.theta_max),
-        ),
-    )
-    return y_new, ta_new, hit
 
 
 def _active_pass(
@@ -783,20 +872,39 @@ def _active_pass(
     params: _Params,
     one_sided: bool,
     uplift,
+    wall,
 ):
-    """:func:`_pass` from its uplift check on (``uplift``: the wall's excess at ``ta`` and
-    ``t1`` or None, the uplift time and pivot, whether the block lifts now, and the wall's
-    rotation and rate at ``t1`` or None)."""
-    excess, t_up, s_up, lift_now, wall_t1 = uplift
+    """:func:`_pass` past its quiet check. ``uplift``: with a fixed wall the check's result
+    (None, the uplift time and pivot, whether the block lifts now); with a moving wall the
+    wall's excess at ``t1``, whether the pass starts at the step's start, and the excess
+    there. ``wall``: with a moving wall the step in progress (None for a fixed wall)."""
     pending = hit.pending
-    moving_wall = record.wall_theta is not None
-    t_mid = 0.5 * (ta + t1)
+    moving_wall = wall is not None
+    if moving_wall:
+        # (built here, not in _pass: a quiet pass needs none of it)
+        step = record.segment(wall)
+        wall_t1 = (step.terms[2], step.terms[3] / step.h)
+        # (1) At rest: lift off when the block's excess over the wall first turns positive.
+        excess_b, from_start, excess_start = uplift
+        # inside the step only after an impact (rare): the wall's excess there
+        inside = ~from_start & (y.s == 0) & (y.overturned == 0) & ~pending
+        excess_a = jax.lax.cond(
+            eqxi.unvmap_any(inside),
+            lambda: _where(from_start, excess_start, _wall_excess(ta, step.at(ta), params, line)),
+            lambda: excess_start,
+        )
+        excess = (excess_a, excess_b)
+        lifts, t_up, s_up = _uplift(ta, t1, line, params, one_sided, excess)
+        lift_now = (y.s == 0) & lifts & (y.overturned == 0) & ~pending
+    else:
+        excess, t_up, s_up, lift_now = uplift
+        step = None
     s = _where(lift_now, s_up, y.s)
     ta = _where(lift_now, t_up, ta)
     rocking = (s != 0) & (y.overturned == 0)
     theta_a, theta_dot_a = y.theta, y.theta_dot
     if moving_wall:  # at rest the block rides on the wall: it lifts with the wall's state
-        wall_up, rate_up, _ = record.wall(ta, t_mid)
+        wall_up, rate_up, _ = step.at(ta)
         theta_a = _where(lift_now, wall_up, theta_a)
         theta_dot_a = _where(lift_now, rate_up, theta_dot_a)
 
@@ -821,7 +929,7 @@ def _active_pass(
     # the gap to the wall: g = u, or theta - theta_w(t) with a moving wall (pivot s = +1)
     g0, dg0, g1, dg1 = u0, du0, u1, du1
     if moving_wall:
-        wall_a, rate_a, _ = record.wall(ta, t_mid)
+        wall_a, rate_a, _ = step.at(ta)
         wall_b, rate_b = wall_t1
         g0, dg0 = theta_a - wall_a, h * (theta_dot_a - rate_a)
         g1, dg1 = theta_f - wall_b, h * (theta_dot_f - rate_b)
@@ -854,7 +962,7 @@ def _active_pass(
     # (4) Impact: one Newton step on the true trajectory, the impact map, the rest rule.
     theta_tau, theta_dot_tau = theta_f, theta_dot_f
     if moving_wall:
-        wall_tau, rate_tau, _ = record.wall(hit.tau, t_mid)
+        wall_tau, rate_tau, _ = step.at(hit.tau)
         gap, closing = theta_tau - wall_tau, theta_dot_tau - rate_tau
         t_wall = _clip(hit.tau - gap / _safe(closing), ta, hit.t_hi)
     else:
@@ -873,7 +981,7 @@ def _active_pass(
     rate_at = jnp.zeros_like(t_impact)  # the wall's rate at the impact [rad/s]
     if moving_wall:
         # restitution of the velocity relative to the wall (the paper's rule in its frame)
-        wall_at, rate_at, _ = record.wall(t_impact, t_mid)
+        wall_at, rate_at, _ = step.at(t_impact)
         theta_at = _where(wall, wall_at, theta_at)
         theta_dot_plus, s_plus = rate_at - params.e * (theta_dot_tau - rate_at), s
     elif one_sided:
@@ -888,7 +996,7 @@ def _active_pass(
     rebound = jnp.abs(theta_dot_plus - rate_at) if moving_wall else jnp.abs(theta_dot_plus)
     rests, hop = jax.lax.cond(
         eqxi.unvmap_any(pending),
-        lambda: _rests(t_impact, rebound, s_plus, line, record, params, one_sided, t_mid),
+        lambda: _rests(t_impact, rebound, s_plus, line, record, params, one_sided, step),
         lambda: (jnp.zeros_like(pending), jnp.zeros_like(t_impact)),
     )
     rests = wall & rests
@@ -903,13 +1011,8 @@ def _active_pass(
     peak = jnp.maximum(peak, _where(rests, hop, 0.0))
     # Not rocking (at rest and not lifting, or overturned): nothing moves. A crossing found
     # keeps the state (and the pivot it lifted onto) at ta for the impact pass.
-    theta_rest, theta_dot_rest = y.theta, y.theta_dot
+    theta_rest, theta_dot_rest = y.theta, y.theta_dot  # (on a moving wall: see _pass)
     theta_max = _where(pending | advance, jnp.maximum(y.theta_max, peak), y.theta_max)
-    if moving_wall:  # at rest (not overturned) the block rides on the wall to t1
-        riding = ~pending & (s == 0) & (y.overturned == 0)
-        theta_rest = _where(riding, wall_b, theta_rest)
-        theta_dot_rest = _where(riding, rate_b, theta_dot_rest)
-        theta_max = _where(riding, jnp.maximum(theta_max, jnp.abs(wall_b)), theta_max)
     y_new = _State(
         theta=_where(pending, theta_at, _where(advance, theta_f, theta_rest)),
         theta_dot=_where(
@@ -1024,7 +1127,7 @@ def _run(
         active = c.k < n_steps  # False only for a finished record of a vmap batch
         t1 = _step_time(c.k + 1, n_sub, dt_out, dt_step)
         line = record.line(_step_time(c.k, n_sub, dt_out, dt_step), t1)
-        y, ta, hit = _pass(c.y, c.ta, c.hit, t1, line, record, params, one_sided)
+        y, ta, hit = _pass(c.y, c.ta, c.hit, c.k, t1, line, record, params, one_sided)
         # A step may explore max_impacts + 1 times, each exploration that finds a crossing
         # followed by its impact pass; then it ends, resolved (ta = t1) or not.
         passes = c.passes + (~c.hit.pending).astype(jnp.int32)
@@ -1073,7 +1176,23 @@ def _run(
         checkpoints=checkpoints,
     )
     carry = _entangle(carry)
-    return carry.out, carry.y
+    if record.wall_theta is None:
+        return carry.out, carry.y
+    return _on_the_wall(carry.out, carry.y, record, n_out)
+
+
+def _on_the_wall(ys: _Series, y: _State, record: _Record, n_out):
+    """The saved samples and the final state with a block at rest on its moving wall put on
+    it (see :func:`_pass`): at a sample where the block rests (``s = 0``; an overturned block
+    keeps its pivot) its rotation and rate are the wall's, and ``theta_max`` includes them
+    (at the samples: with ``n_sub > 1`` not the wall's rotation between two samples)."""
+    resting = ys.s == 0
+    theta = _where(resting, record.wall_theta, ys.theta)
+    theta_dot = _where(resting, record.wall_rate, ys.theta_dot)
+    counted = resting & (jnp.arange(theta.shape[0]) < n_out)
+    top = jnp.max(jnp.where(counted, jnp.abs(record.wall_theta), 0.0))
+    ys = eqx.tree_at(lambda z: (z.theta, z.theta_dot), ys, (theta, theta_dot))
+    return ys, eqx.tree_at(lambda z: z.theta_max, y, jnp.maximum(y.theta_max, top))
 
 
 def _entangle(tree, others=()):
@@ -1490,7 +1609,7 @@ def _simulate(
         record = _Record(ag=ag, ag_v=ag_v, dt=dt_out)
     else:
         record = _Record(ag=ag, ag_v=ag_v, dt=dt_out, wall_theta=wall[0], wall_rate=wall[1])
-        record = record.with_wall_restoring(params)
+        record = record.with_wall_steps(params, n_sub)
     moving = (theta0 != 0) | (theta_dot0 != 0)
     if one_sided:
         s0 = jnp.where(moving, 1.0, 0.0)
@@ -1551,7 +1670,7 @@ def _simulate(
 
     # The polynomial sine and cosine (rotations stay below 2 rad) on the whole padded series;
     # cos(eta - |theta|) - cos(eta) = cos(eta) (cos(theta) - 1) + sin(eta) |sin(theta)|.
-    sin_th, cos_th = _sincos(theta)
+    sin_th, cos_th = _sincos(theta, False)
     d = jnp.sign(theta) * 0.5 * block.b * (1.0 - cos_th) + block.h * sin_th
     if law is None:
         potential = jnp.cos(eta) * (cos_th - 1.0) + jnp.sin(eta) * jnp.abs(sin_th)

@@ -52,10 +52,10 @@ def _wall_from_acceleration(a_w, dt):
     return u, v
 
 
-def _sine_wall(n, amplitude=0.005, f=2.0):
+def _sine_wall(n, amplitude=0.005, f=2.0, dt=DT):
     """Acceleration [m/s^2] of a wall that oscillates as u = A (1 - cos(w t)) from rest: it
     pushes the facade outward by up to 2 A and comes back, without drift."""
-    t = np.arange(n) * DT
+    t = np.arange(n) * dt
     w = 2 * np.pi * f
     return amplitude * w * w * np.cos(w * t)
 
@@ -168,6 +168,24 @@ def test_sinusoidal_wall_matches_an_event_driven_reference(block, record):
     peak = np.max(np.abs(ref))
     np.testing.assert_allclose(theta, ref, rtol=0, atol=REF_RTOL_PEAK * peak)
     assert float(resp.theta_max) == pytest.approx(peak, rel=REF_RTOL_PEAK)
+
+
+def test_sinusoidal_wall_with_two_solver_steps_per_sample(block):
+    """The same reference with a record sampled at 0.05 s: p dt = 0.11 > P_DT_TARGET, so the
+    solver takes two steps per sample and reads the wall inside a sample interval."""
+    dt = 0.05
+    assert float(block.p) * dt > rj.housner.P_DT_TARGET
+    t = np.arange(0.0, 6.0 + dt / 2, dt)
+    record = rj.GroundMotion(ag=-1.0 * np.sin(2 * np.pi * t) * (t < 2.5), dt=dt)
+    a_w = _sine_wall(record.n, dt=dt)
+    u, v = _wall_from_acceleration(a_w, dt)
+    resp = rj.simulate_housner(block, record, mode="one_sided", e=0.8, wall_motion=(u, v))
+    theta = np.asarray(resp.theta)
+    assert int(resp.extras["n_impacts"][-1]) >= 5
+    assert np.min(theta - u / float(block.h)) > -1e-12
+    ref = _reference(block, record, a_w, 0.8, (record.n - 1) * dt)
+    peak = np.max(np.abs(ref))
+    np.testing.assert_allclose(theta, ref, rtol=0, atol=REF_RTOL_PEAK * peak)
 
 
 def test_a_facade_at_rest_rides_on_its_wall(block):
