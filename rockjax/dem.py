@@ -43,6 +43,7 @@ state from there (:func:`run_prepared` with ``n``), and the outputs are cut on t
 from __future__ import annotations
 
 import math
+from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
@@ -57,6 +58,7 @@ from ._checks import (
     check_scalar,
     concrete,
 )
+from ._fusion import one_computation
 from .assembly import Assembly
 from .block import Block
 from .compilation import bucket_length, is_traced, notice_once, pad_to
@@ -439,34 +441,63 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
     return fx, fy, mom, tuple(fn_base), tuple(fs_base), tuple(fs_wall), damping, power
 
 
-def _wall_geometry(params: DemParams, wall):
-    """The return wall's contact line ``x = x0 + slope y`` and the rates ``(x0', slope')``
-    [m, -, m/s, 1/s] (``wall = (u_top, v_top)``, or None: fixed, ``x0 = -b/2 - gap``).
+class _WallFrame(NamedTuple):
+    """A moving return wall at one step, computed once (:func:`_wall_frame`)."""
+
+    x0: Any  # the contact line x = x0 + slope y [m]
+    slope: Any  # [-]
+    x0_dot: Any  # [m/s]
+    slope_dot: Any  # [1/s]
+    x_pivot: Any  # the pivot the wall turns about [m]
+    rate: Any  # theta_w' [rad/s]
+
+
+def _wall_frame(params: DemParams, wall):
+    """The return wall's contact line ``x = x0 + slope y``, its rates ``(x0', slope')``
+    [m, -, m/s, 1/s], its pivot and rotation rate, from ``wall = (u_top, v_top)`` (a
+    :class:`_WallFrame` is returned as it is; None: a fixed wall, returned as None).
 
     The line is the back face of the block rocked rigidly to ``theta_w = u_top / h``, moved
     back by ``gap``: turned about its toe ``(b/2, 0)`` for ``theta_w > 0`` (the heel goes to
     ``(b/2 - b cos theta_w, b sin theta_w)``), about its heel for ``theta_w < 0``
     (:func:`rockjax.walls.wall_line` with ``d = b`` or 0). A block riding on the wall with
     ``theta = theta_w`` touches it along its whole back face, as in the analytical model,
-    whose gap is ``theta - theta_w`` (docs/pushover.md, "Moving return walls")."""
-    wall_x = -0.5 * params.b - params.gap
+    whose gap is ``theta - theta_w`` (docs/pushover.md, "Moving return walls"). The material
+    of the wall turns about the (gap-shifted) toe ``(b/2 - gap, 0)`` for ``theta_w > 0``,
+    about the heel ``(-b/2 - gap, 0)`` otherwise.
+
+    Computed as one XLA computation (:func:`rockjax._fusion.one_computation`): XLA:CPU
+    would otherwise copy the series into every fusion of the step that reads them.
+    """
+    if wall is None or isinstance(wall, _WallFrame):
+        return wall
+
+    def frame(u_top, v_top, b, h, gap):
+        theta_w, rate = u_top / h, v_top / h
+        d = wall_pivot(theta_w, b, 0.0)  # the pivot's distance from the face
+        line = wall_line(-0.5 * b - gap, d, theta_w, rate)
+        x_pivot = wall_pivot(theta_w, 0.5 * b - gap, -0.5 * b - gap)
+        return _WallFrame(*line, x_pivot, rate)
+
+    u_top, v_top = (jnp.asarray(x, float) for x in wall)
+    return one_computation(frame, u_top, v_top, params.b, params.h, params.gap)
+
+
+def _wall_geometry(params: DemParams, wall):
+    """``(x0, slope, x0', slope')`` of the return wall's contact line (:func:`_wall_frame`;
+    ``wall = None``: fixed, ``x0 = -b/2 - gap``)."""
     if wall is None:
-        return wall_x, 0.0, 0.0, 0.0
-    theta_w = wall[0] / params.h
-    d = wall_pivot(theta_w, params.b, 0.0)  # the pivot's distance from the face
-    return wall_line(wall_x, d, theta_w, wall[1] / params.h)
+        return -0.5 * params.b - params.gap, 0.0, 0.0, 0.0
+    return tuple(_wall_frame(params, wall)[:4])
 
 
 def _wall_rise(params: DemParams, wall, x_pt):
-    """Vertical velocity [m/s] of the wall's material at ``x = x_pt``: the wall turns rigidly
-    at ``theta_w' = v_top / h`` about the (gap-shifted) toe ``(b/2 - gap, 0)`` for
-    ``theta_w > 0``, about the heel ``(-b/2 - gap, 0)`` otherwise
-    (:func:`rockjax.walls.wall_rise`; 0 for a fixed wall)."""
+    """Vertical velocity [m/s] of the wall's material at ``x = x_pt`` (it turns rigidly about
+    its pivot, :func:`_wall_frame`; :func:`rockjax.walls.wall_rise`; 0 for a fixed wall)."""
     if wall is None:
         return 0.0
-    theta_w = wall[0] / params.h
-    x_pivot = wall_pivot(theta_w, 0.5 * params.b - params.gap, -0.5 * params.b - params.gap)
-    return wall_rise(x_pivot, wall[1] / params.h, x_pt)
+    frame = _wall_frame(params, wall)
+    return wall_rise(frame.x_pivot, frame.rate, x_pt)
 
 
 def _wall_line(params: DemParams, wall, x_pt, y_pt, xd_pt, yd_pt):
@@ -640,7 +671,8 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
             # the shear on the rising wall: its vertical velocity rate (x_pivot - x - rx),
             # and the shear traction's moment is the integral of f_t (-rx) here
             mom_s = f_s * arm_bar - beta * ks * v1
-            power = power + _wall_rise(params, motion, state.x) * ft + motion[1] / params.h * mom_s
+            rate = _wall_frame(params, motion).rate
+            power = power + _wall_rise(params, motion, state.x) * ft + rate * mom_s
     else:
         fx, fy = ft, fn
         (cxx, cxt, ctt_x), (cyy, cyt, ctt_y) = t_, n
@@ -694,6 +726,7 @@ def step(params: DemParams, state: DemState, ag, ag_v, dt, *, wall=None, load=No
     """
     c, s = state.c, state.s
     forces = _face_forces if params.face else _contact_forces
+    wall = _wall_frame(params, wall)  # once a step
     fx, fy, mom, fn, fs_base, fs_wall, damping, power = forces(params, state, dt, c, s, wall)
     cxx, cyy, cxt, cyt, ctt = damping
     if load is not None:

@@ -30,7 +30,6 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
-import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -45,6 +44,7 @@ from ._checks import (
     concrete,
     is_array_pair,
 )
+from ._fusion import one_computation
 from .assembly import Assembly
 from .block import Block
 from .building import ShearBuilding
@@ -485,31 +485,6 @@ def _mm(a, b):
 
 def _tr(a):
     return [[a[j][i] for j in range(3)] for i in range(3)]
-
-
-def _one_computation(f, *args):
-    """``f(*args)`` kept as one XLA computation (a ``cond`` on a predicate XLA cannot fold:
-    true unless the first array input is NaN, where the other branch gives NaN as well).
-
-    Why: the step is unrolled scalar arithmetic, and XLA's CPU fusion copies a producer into
-    every consumer it feeds; inlined, the block elimination was recomputed inside each of the
-    3 n velocity updates that read its result: the compiled two-block step had 7481
-    operations, 4653 with the elimination kept whole (its traced program has about 1500),
-    and a 10 s history of it ran in 0.028-0.030 s instead of 0.056-0.062 s (the two versions
-    in alternation; docs/assemblies.md, "Performance"). Python numbers in ``args`` (the
-    folded zeros and ones of ``_plus``/``_mul``) stay Python numbers inside.
-    """
-    dynamic, static = eqx.partition(args, eqx.is_array)
-    first = jax.tree.leaves(dynamic)[0]
-    ok = eqxi.unvmap_any(first == first)
-
-    def run(d):
-        return f(*eqx.combine(d, static))
-
-    def nan(d):
-        return jax.tree.map(lambda a: jnp.full(a.shape, jnp.nan, a.dtype), jax.eval_shape(run, d))
-
-    return jax.lax.cond(ok, run, nan, dynamic)
 
 
 def _solve_tridiagonal(diag, lower, rhs):
@@ -967,7 +942,7 @@ def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load, top_motio
         )
         lower.append(None if clow[k] is None else _scale(h, clow[k]))
         rhs.append([force[k][0] - mk * ag, force[k][1] - mk * (G + ag_v), _plus(force[k][2])])
-    acc = _one_computation(_solve_tridiagonal, diag, lower, rhs)
+    acc = one_computation(_solve_tridiagonal, diag, lower, rhs)
     new = {f: [] for f in ("x", "y", "c", "s", "vx", "vy", "w", "theta", "theta_max")}
     for k in range(n):
         ax, ay, aw = acc[k]

@@ -1,0 +1,36 @@
+"""Keeping a piece of a time step as one XLA computation.
+
+The steppers are unrolled scalar arithmetic, and XLA's CPU fusion copies a producer into every
+consumer it feeds: a value read by many parts of a step (the block elimination of an
+assembly, a moving wall's geometry) is then recomputed in each of them. ``optimization_barrier``
+does not survive to XLA:CPU's fusion; a ``cond`` does.
+"""
+
+import equinox as eqx
+import equinox.internal as eqxi
+import jax
+import jax.numpy as jnp
+
+
+def one_computation(f, *args):
+    """``f(*args)`` kept as one XLA computation (a ``cond`` on a predicate XLA cannot fold:
+    true unless the first array input is NaN, where the other branch gives NaN as well).
+
+    Measured: inlined, an assembly's block elimination was recomputed inside each of the 3 n
+    velocity updates that read its result: the compiled two-block step had 7481 operations,
+    4653 with the elimination kept whole (its traced program has about 1500), and a 10 s
+    history of it ran in 0.028-0.030 s instead of 0.056-0.062 s (the two versions in
+    alternation; docs/assemblies.md, "Performance"). Python numbers in ``args`` (the folded
+    zeros and ones of an assembly's sparse products) stay Python numbers inside.
+    """
+    dynamic, static = eqx.partition(args, eqx.is_array)
+    first = jax.tree.leaves(dynamic)[0]
+    ok = eqxi.unvmap_any(first == first)
+
+    def run(d):
+        return f(*eqx.combine(d, static))
+
+    def nan(d):
+        return jax.tree.map(lambda a: jnp.full(a.shape, jnp.nan, a.dtype), jax.eval_shape(run, d))
+
+    return jax.lax.cond(ok, run, nan, dynamic)
