@@ -10,7 +10,8 @@ through ``rj.ida`` with and without ``wall_motion=bldg``, for the Housner model 
 ``simulate_dem`` takes ``wall_motion``) the DEM. Each IDA is timed on its first call
 (compiling), then warm in ``--repeat`` rounds that call the two in turn (a load burst from
 other jobs hits both alike); the script prints the ratio with / without the building of the
-warm minima, which the load inflates least (target: <= 1.20), and of the medians.
+warm medians (target: <= 1.20) and of the minima. (The verdict reads the medians: with a few
+rounds a single lucky minimum of one of the two moves the ratio of the minima by 0.1.)
 
 ``--profile`` splits the Housner cost on one ``dt`` group of the records (``jit(vmap)`` over
 the group's runs, as ``rj.ida`` batches them): the building's solve alone
@@ -273,10 +274,10 @@ def main() -> None:
             )
         ratio = results["building"][1] / results["fixed"][1]
         ratio_med = results["building"][2] / results["fixed"][2]
-        verdict = "PASS" if ratio <= TARGET_RATIO else "FAIL"
+        verdict = "PASS" if ratio_med <= TARGET_RATIO else "FAIL"
         summary.append(
-            f"  {model}: warm with / without the building = {ratio:.2f} (minima; {verdict}), "
-            f"{ratio_med:.2f} (medians)"
+            f"  {model}: warm with / without the building = {ratio_med:.2f} (medians; {verdict}), "
+            f"{ratio:.2f} (minima)"
         )
     print(f"\n  target: <= {TARGET_RATIO:.2f}")
     print("\n".join(summary))

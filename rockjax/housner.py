@@ -620,14 +620,14 @@ def _hermite_root(u0, du0, u1, du1, xb):
     return x
 
 
-def _uplift(ta, t1, line: _Line, params: _Params, one_sided: bool, excess=None):
+def _uplift(ta, t1, line: _Line | None, params: _Params, one_sided: bool, excess=None):
     """First time in ``[ta, t1]`` the linear forcing exceeds the uplift threshold, and the pivot.
 
     Two-sided: ``a_g - tan(eta) g_eff > 0`` lifts onto ``s = -1``, ``-a_g - tan(eta) g_eff > 0``
     onto ``s = +1``; one-sided only the latter. Both are linear in ``t``.
 
     With a moving wall ``excess`` gives the excess at ``ta`` and ``t1`` instead (see
-    ``_wall_excess``), linear in between.
+    ``_wall_excess``), linear in between, and ``line`` is not read (None).
 
     Returns:
         ``(lifts, t_uplift, s)``: whether it lifts in the interval, when [s], and the pivot.
@@ -808,8 +808,8 @@ def _pass(
     ta,
     hit: _Hit,
     k,
+    t0,
     t1,
-    line: _Line,
     record: _Record,
     params: _Params,
     one_sided: bool,
@@ -834,12 +834,13 @@ def _pass(
     wall's state), and :func:`_on_the_wall` puts the saved samples on the wall after the loop.
     (Updated in every pass, they cost a quiet pass about a fifth of its time.)
 
-    ``k`` is the step in progress (from ``line.t0`` to ``t1``). Returns the state, the time it
-    holds at and the hit for the next pass.
+    ``k`` is the step in progress (from ``t0`` to ``t1``). Returns the state, the time it holds
+    at and the hit for the next pass.
     """
     pending = hit.pending
     if record.wall_theta is None:
         # (1) At rest: lift off when the forcing first exceeds the threshold in [ta, t1].
+        line = record.line(t0, t1)
         lifts, t_up, s_up = _uplift(ta, t1, line, params, one_sided)
         lift_now = (y.s == 0) & lifts & (y.overturned == 0) & ~pending
         quiet = ~pending & ~lift_now & ((y.s == 0) | (y.overturned != 0))
@@ -849,8 +850,9 @@ def _pass(
         excess_a, excess_b = column[0, 0], column[1, 0]
         # The check from the table holds for a pass that starts at the step's start; one
         # that starts later (after an impact inside the step) is never quiet.
-        from_start = ta == line.t0
-        lifts = _uplift(ta, t1, line, params, one_sided, (excess_a, excess_b))[0]
+        from_start = ta == t0
+        lifts = _uplift(ta, t1, None, params, one_sided, (excess_a, excess_b))[0]
+        line = None  # (the forcing on the step: only an active pass needs it)
         at_rest = (y.s == 0) & from_start & ~lifts
         quiet = ~pending & (at_rest | (y.overturned != 0))
         uplift = (excess_b, from_start, excess_a)
@@ -858,7 +860,18 @@ def _pass(
     return jax.lax.cond(
         eqxi.unvmap_all(quiet),
         lambda: (y, t1 + jnp.zeros_like(ta), hit),
-        lambda: _active_pass(y, ta, hit, t1, line, record, params, one_sided, uplift, wall),
+        lambda: _active_pass(
+            y,
+            ta,
+            hit,
+            t1,
+            record.line(t0, t1) if line is None else line,
+            record,
+            params,
+            one_sided,
+            uplift,
+            wall,
+        ),
     )
 
 
@@ -1126,8 +1139,8 @@ def _run(
     def body(c):
         active = c.k < n_steps  # False only for a finished record of a vmap batch
         t1 = _step_time(c.k + 1, n_sub, dt_out, dt_step)
-        line = record.line(_step_time(c.k, n_sub, dt_out, dt_step), t1)
-        y, ta, hit = _pass(c.y, c.ta, c.hit, c.k, t1, line, record, params, one_sided)
+        t0 = _step_time(c.k, n_sub, dt_out, dt_step)
+        y, ta, hit = _pass(c.y, c.ta, c.hit, c.k, t0, t1, record, params, one_sided)
         # A step may explore max_impacts + 1 times, each exploration that finds a crossing
         # followed by its impact pass; then it ends, resolved (ta = t1) or not.
         passes = c.passes + (~c.hit.pending).astype(jnp.int32)
