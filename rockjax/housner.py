@@ -831,8 +831,8 @@ def _pass(
 
     A block at rest on a moving wall rides on it, but its state in the loop keeps the rotation
     and rate it came to rest with: nothing in a pass reads them (a lift-off starts from the
-    wall's state), and :func:`_on_the_wall` puts the saved samples on the wall after the loop.
-    (Updated in every pass, they cost a quiet pass about a fifth of its time.)
+    wall's state), and :func:`_on_the_wall` puts the saved samples on the wall after the loop
+    (updated in every pass, they were work that a quiet pass does not need).
 
     ``k`` is the step in progress (from ``t0`` to ``t1``). Returns the state, the time it holds
     at and the hit for the next pass.
@@ -1195,10 +1195,11 @@ def _run(
 
 
 def _on_the_wall(ys: _Series, y: _State, record: _Record, n_out):
-    """The saved samples and the final state with a block at rest on its moving wall put on
-    it (see :func:`_pass`): at a sample where the block rests (``s = 0``; an overturned block
-    keeps its pivot) its rotation and rate are the wall's, and ``theta_max`` includes them
-    (at the samples: with ``n_sub > 1`` not the wall's rotation between two samples)."""
+    """The saved samples with a block at rest on its moving wall put on it (see
+    :func:`_pass`): at a sample where the block rests (``s = 0``; an overturned block keeps its
+    pivot) its rotation and rate are the wall's; the final state's ``theta_max`` includes
+    them (at the samples: with ``n_sub > 1`` not the wall's rotation between two samples). The
+    final state's rotation and rate are left as the loop ends them (nothing reads them)."""
     resting = ys.s == 0
     theta = _where(resting, record.wall_theta, ys.theta)
     theta_dot = _where(resting, record.wall_rate, ys.theta_dot)
