@@ -4,6 +4,11 @@ The steppers are unrolled scalar arithmetic, and XLA's CPU fusion copies a produ
 consumer it feeds: a value read by many parts of a step (the block elimination of an
 assembly, a moving wall's geometry) is then recomputed in each of them. ``optimization_barrier``
 does not survive to XLA:CPU's fusion; a ``cond`` does.
+
+Under ``vmap`` the same ``cond`` costs time instead (its results are materialised as vectors
+and the batch's predicate reduced every step), so the contact law is kept whole only in a
+single history outside any transform (``single_history`` of the DEM's and the assembly's
+parameters; docs/benchmarks.md, "One history").
 """
 
 import equinox as eqx

@@ -42,6 +42,7 @@ state from there (:func:`run_prepared` with ``n``), and the outputs are cut on t
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, NamedTuple
 
@@ -136,6 +137,9 @@ class DemParams(eqx.Module):
     dashpot: str = eqx.field(static=True)
     onset: str = eqx.field(static=True, default="sub_step")
     face: bool = eqx.field(static=True, default=False)  # the integrated face law (n_sub="exact")
+    # one history outside any transform: the contact forces are computed as one XLA
+    # computation (docs/benchmarks.md, "One history")
+    single_history: bool = eqx.field(static=True, default=False)
 
 
 class DemState(eqx.Module):
@@ -727,7 +731,13 @@ def step(params: DemParams, state: DemState, ag, ag_v, dt, *, wall=None, load=No
     c, s = state.c, state.s
     forces = _face_forces if params.face else _contact_forces
     wall = _wall_frame(params, wall)  # once a step
-    fx, fy, mom, fn, fs_base, fs_wall, damping, power = forces(params, state, dt, c, s, wall)
+    if params.single_history:
+        # scalar code: XLA:CPU would copy the contact law into each consumer of its results
+        fx, fy, mom, fn, fs_base, fs_wall, damping, power = one_computation(
+            lambda st, p, dt_, wl: forces(p, st, dt_, st.c, st.s, wl), state, params, dt, wall
+        )
+    else:
+        fx, fy, mom, fn, fs_base, fs_wall, damping, power = forces(params, state, dt, c, s, wall)
     cxx, cyy, cxt, cyt, ctt = damping
     if load is not None:
         fx, fy, mom = fx + load[0], fy + load[1], mom + load[2]
@@ -1236,7 +1246,7 @@ def simulate_dem(
         "sample (once per session)...",
     )
     resp = run_prepared(
-        params,
+        dataclasses.replace(params, single_history=True),
         state0,
         pad_to(ag, n_pad),
         pad_to(ag_v, n_pad),

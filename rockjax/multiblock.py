@@ -27,6 +27,7 @@ one-block assembly reproduces :func:`rockjax.simulate_dem`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import equinox as eqx
@@ -48,6 +49,7 @@ from ._fusion import one_computation
 from .assembly import Assembly
 from .block import Block
 from .building import ShearBuilding
+from .compilation import is_traced
 from .constants import G
 from .contact import (
     Joint,
@@ -118,6 +120,9 @@ class AssemblyParams(eqx.Module):
     one_sided: bool = eqx.field(static=True)
     links: tuple = eqx.field(static=True, default=())
     row: bool = eqx.field(static=True, default=False)
+    # one history outside any transform: each face's end kinematics and contact law are
+    # computed as one XLA computation each (docs/assemblies.md, "Performance")
+    single_history: bool = eqx.field(static=True, default=False)
 
     @property
     def n(self) -> int:
@@ -652,7 +657,11 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         lo, hi, hist = p.lo[k], p.hi[k], st.fs[k]
     width = hi - lo
     ground = rel is None
-    ends = [kin(lo), kin(hi)]
+    if p.single_history:
+        # read by most of what follows: XLA:CPU would copy it into each consumer
+        ends = one_computation(lambda x, a, b_: [kin(a), kin(b_)], st.x[0], lo, hi)
+    else:
+        ends = [kin(lo), kin(hi)]
     dt_onset = dt if p.onset == "sub_step" else None
     clipped = p.dashpot == "clipped"
     beta = p.beta
@@ -699,7 +708,16 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
     slip = ends[0][6] + tau * (ends[1][6] - ends[0][6])
     wf_el = jnp.zeros_like(t)
     if p.face:
-        f, f_el, frac = normal_force(delta, rate, kn, beta, p.dashpot, dt_onset)
+        if p.single_history:  # the same, for the contact law at the face's points
+            f, f_el, frac = one_computation(
+                lambda d, r, k_, b_: normal_force(d, r, k_, b_, p.dashpot, dt_onset),
+                delta,
+                rate,
+                kn,
+                beta,
+            )
+        else:
+            f, f_el, frac = normal_force(delta, rate, kn, beta, p.dashpot, dt_onset)
         wf, wfn, wf_el = wgt * frac, wgt * f, wgt * f_el
         fs_arr = jnp.zeros_like(t)
     else:
@@ -1550,6 +1568,8 @@ def simulate_assembly(
     n_in = max(1, math.ceil(dt_out / dt_target - 1e-9))
     step = dt_out / n_in
     st0 = initial_assembly_state(assembly, p, theta0, joint)
+    if not is_traced(p, st0, ag, ag_v, top, wall):
+        p = dataclasses.replace(p, single_history=True)
     # the steps as arrays: traced, so a new step does not recompile (n_in is static)
     return _run(
         p, st0, ag, ag_v, np.asarray(step), np.asarray(dt_out), n_in, tuple(save), throw, top, wall

@@ -164,7 +164,9 @@ def test_overturning_is_flagged_and_frozen(parapet):
 
 
 def test_jit_matches_eager_and_vmap_matches_loop(parapet):
-    """The default joint (the integrated face law): vmap = loop and jit = eager, bit for bit."""
+    """The default joint (the integrated face law): vmap = loop and jit = eager to round-off (an
+    eager call keeps the contact forces as one computation, a traced one inlines them: the
+    same arithmetic, grouped differently by XLA)."""
     beta = rj.beta_dejong(parapet)
     dt = rj.stable_dt(parapet, beta)
     amps = jnp.array([-0.5, -1.0, 1.5]) * G * float(parapet.b / parapet.h)
