@@ -5,6 +5,7 @@ A script that prints tables, not a test (STYLE.md section 5).
 
     python benchmarks/bench_assembly.py            # 1, 2, 4, 8 blocks; batch of 64 records
     python benchmarks/bench_assembly.py --quick    # 1, 2, 4 blocks; batch of 16
+    python benchmarks/bench_assembly.py --quick --batch 256   # rj.ida's chunk of runs
 
 Every run uses the same step ``dt`` for all models (the two-block wall's default step), so the
 numbers compare the work per step. Times are medians of repeated calls after a warm-up (the
@@ -43,9 +44,10 @@ def _record(duration: float, pga: float, period: float = 0.4) -> rj.GroundMotion
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="1, 2, 4 blocks; batch of 16")
+    ap.add_argument("--batch", type=int, help="records per batch (default 64; 16 with --quick)")
     args = ap.parse_args(argv)
     sizes = (1, 2, 4) if args.quick else (1, 2, 4, 8)
-    batch = 16 if args.quick else 64
+    batch = args.batch or (16 if args.quick else 64)
     duration, duration_batch = 10.0, 2.0
     beta = 1e-3
     print(f"machine: {machine()}; load {load()}; jax {jax.__version__}, {jax.devices()[0]}")

@@ -6,9 +6,10 @@ assembly, a moving wall's geometry) is then recomputed in each of them. ``optimi
 does not survive to XLA:CPU's fusion; a ``cond`` does.
 
 Under ``vmap`` the same ``cond`` costs time instead (its results are materialised as vectors
-and the batch's predicate reduced every step), so the contact law is kept whole only in a
-single history outside any transform (``single_history`` of the DEM's and the assembly's
-parameters; docs/benchmarks.md, "One history").
+and the batch's predicate reduced every step), so the contact law is kept whole only in one
+history (``single_history`` of the DEM's parameters: an eager call; of an assembly's: any
+call that is not batched; docs/benchmarks.md "One history", docs/assemblies.md
+"Performance").
 """
 
 import equinox as eqx

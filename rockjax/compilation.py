@@ -167,3 +167,16 @@ def _notice(message: str) -> None:
 def is_traced(*xs) -> bool:
     """True if any leaf of ``xs`` is a JAX tracer (the call is inside jit, vmap or grad)."""
     return any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(xs))
+
+
+def is_batched(*xs) -> bool:
+    """True if any leaf of ``xs`` is batched by ``vmap`` (directly, or as the primal of a
+    forward-mode tracer). A heuristic for choosing the faster program (a batch's tracer
+    carries a ``batch_dim``); a miss costs time, never a result."""
+
+    def batched(x):
+        return getattr(x, "batch_dim", None) is not None or (
+            hasattr(x, "primal") and batched(x.primal)
+        )
+
+    return any(isinstance(x, jax.core.Tracer) and batched(x) for x in jax.tree.leaves(xs))

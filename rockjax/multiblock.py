@@ -49,7 +49,7 @@ from ._fusion import one_computation
 from .assembly import Assembly
 from .block import Block
 from .building import ShearBuilding
-from .compilation import is_traced
+from .compilation import is_batched
 from .constants import G
 from .contact import (
     Joint,
@@ -120,8 +120,9 @@ class AssemblyParams(eqx.Module):
     one_sided: bool = eqx.field(static=True)
     links: tuple = eqx.field(static=True, default=())
     row: bool = eqx.field(static=True, default=False)
-    # one history outside any transform: each face's end kinematics and contact law are
-    # computed as one XLA computation each (docs/assemblies.md, "Performance")
+    # one history, not a batch (vmap): each face's end kinematics and contact law are
+    # computed as one XLA computation each; a batch takes the face law's points as scalars
+    # (docs/assemblies.md, "Performance")
     single_history: bool = eqx.field(static=True, default=False)
 
     @property
@@ -636,6 +637,82 @@ def _quadratic_c(m0, m1, m2, p0, p1, q0, q1):
     ]
 
 
+def _face_sums(p: AssemblyParams, pts, lo, width, ends, kn, beta, dt_onset, clipped):
+    """The face law's sums over its Gauss points (see :func:`_point_sums`), the points as
+    scalars: ``sum w f``, ``sum w f_el``, ``sum w f tau``, the dashpot weights' moments
+    ``n0..n2`` (``s0..s2`` unclipped), ``sum w frac slip (1, tau)`` and two zeros (no
+    point shear springs)."""
+    (d_lo, d_hi), (r_lo, r_hi) = (ends[0][4], ends[1][4]), (ends[0][5], ends[1][5])
+    out = [0.0] * 13
+    for t, w in pts:
+        tau = (t - lo) / width
+        f, f_el, frac = normal_force(
+            d_lo + tau * (d_hi - d_lo), r_lo + tau * (r_hi - r_lo), kn, beta, p.dashpot, dt_onset
+        )
+        slip = ends[0][6] + tau * (ends[1][6] - ends[0][6])
+        wf, wfn = w * frac, w * f
+        wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
+        terms = (wfn, w * f_el, wfn * tau, wn, wn * tau, wn * tau * tau, wf, wf * tau)
+        terms += (wf * tau * tau, wf * slip, wf * slip * tau)
+        out = [a + b for a, b in zip(out, terms + (0.0, 0.0))]
+    return out
+
+
+def _point_sums(p: AssemblyParams, k, pts, lo, width, ends, hist, kn, beta, dt, dt_onset, clipped):
+    """The sums over a face's points ``pts`` (``(t, weight)``) as one reduction, and the
+    point shear springs (zeros for the face law): see :func:`_interface`."""
+    d_lo, d_hi = ends[0][4], ends[1][4]
+    r_lo, r_hi = ends[0][5], ends[1][5]
+    # all points at once: the sums over the face come out of one reduction, computed once
+    # (as scalars, XLA:CPU recomputed them inside every fusion that consumed them in a
+    # single history)
+    t = jnp.stack([jnp.asarray(q[0], float) for q in pts])
+    wgt = jnp.stack([jnp.asarray(q[1], float) for q in pts])
+    tau = (t - lo) / width
+    delta = d_lo + tau * (d_hi - d_lo)
+    rate = r_lo + tau * (r_hi - r_lo)
+    slip = ends[0][6] + tau * (ends[1][6] - ends[0][6])
+    wf_el = jnp.zeros_like(t)
+    if p.face:  # one history (a batch takes _face_sums): the point law as one computation
+        f, f_el, frac = one_computation(
+            lambda d, r, k_, b_: normal_force(d, r, k_, b_, p.dashpot, dt_onset),
+            delta,
+            rate,
+            kn,
+            beta,
+        )
+        wf, wfn, wf_el = wgt * frac, wgt * f, wgt * f_el
+        fs_arr = jnp.zeros_like(t)
+    else:
+        kn_i, ks_i = p.kn_line[k] * wgt, p.ks_line[k] * wgt
+        f, f_el, frac = normal_force(delta, rate, kn_i, beta, p.dashpot, dt_onset)
+        fs_old = jnp.stack([jnp.asarray(v, float) for v in hist])
+        _, fs_arr = shear_force(fs_old, slip, dt, ks_i, f_el, p.tan_phi, beta, frac)
+        wf, wfn = wgt * frac, f
+    wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
+    sums = jnp.sum(
+        jnp.stack(
+            [
+                wfn,
+                wf_el,
+                wfn * tau,
+                wn,
+                wn * tau,
+                wn * tau * tau,
+                wf,
+                wf * tau,
+                wf * tau * tau,
+                wf * slip,
+                wf * slip * tau,
+                fs_arr,
+                fs_arr * tau,
+            ]
+        ),
+        axis=-1,
+    )
+    return sums, fs_arr
+
+
 def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = False, motion=None):
     """Forces of interface ``k`` (integrated face law or point sub-contacts), or with ``wall``
     of block ``k``'s back face on the return wall (a body moved by ``motion``, see
@@ -698,57 +775,17 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         wts[0] = wts[-1] = 0.5
         step = width / (n_sub - 1)
         pts = [(lo + step * i, wts[i] * step) for i in range(n_sub)]
-    # all points at once: the sums over the face come out of one reduction, computed once
-    # (as scalars, XLA:CPU recomputed them inside every fusion that consumed them)
-    t = jnp.stack([jnp.asarray(q[0], float) for q in pts])
-    wgt = jnp.stack([jnp.asarray(q[1], float) for q in pts])
-    tau = (t - lo) / width
-    delta = d_lo + tau * (d_hi - d_lo)
-    rate = r_lo + tau * (r_hi - r_lo)
-    slip = ends[0][6] + tau * (ends[1][6] - ends[0][6])
-    wf_el = jnp.zeros_like(t)
-    if p.face:
-        if p.single_history:  # the same, for the contact law at the face's points
-            f, f_el, frac = one_computation(
-                lambda d, r, k_, b_: normal_force(d, r, k_, b_, p.dashpot, dt_onset),
-                delta,
-                rate,
-                kn,
-                beta,
-            )
-        else:
-            f, f_el, frac = normal_force(delta, rate, kn, beta, p.dashpot, dt_onset)
-        wf, wfn, wf_el = wgt * frac, wgt * f, wgt * f_el
-        fs_arr = jnp.zeros_like(t)
+    if p.face and not p.single_history:
+        # in a batch the points as scalars: each is then a vector over the batch, and the
+        # per-point arrays of the reduction below would be (batch, points) arrays in the
+        # loop's memory (docs/assemblies.md, "Performance")
+        sums = _face_sums(p, pts, lo, width, ends, p.kn_line[k], beta, dt_onset, clipped)
+        fs_arr = None
     else:
-        kn_i, ks_i = p.kn_line[k] * wgt, p.ks_line[k] * wgt
-        f, f_el, frac = normal_force(delta, rate, kn_i, beta, p.dashpot, dt_onset)
-        fs_old = jnp.stack([jnp.asarray(v, float) for v in hist])
-        _, fs_arr = shear_force(fs_old, slip, dt, ks_i, f_el, p.tan_phi, beta, frac)
-        wf, wfn = wgt * frac, f
-    wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
-    sums = jnp.sum(
-        jnp.stack(
-            [
-                wfn,
-                wf_el,
-                wfn * tau,
-                wn,
-                wn * tau,
-                wn * tau * tau,
-                wf,
-                wf * tau,
-                wf * tau * tau,
-                wf * slip,
-                wf * slip * tau,
-                fs_arr,
-                fs_arr * tau,
-            ]
-        ),
-        axis=-1,
-    )
+        sums, fs_arr = _point_sums(
+            p, k, pts, lo, width, ends, hist, p.kn_line[k], beta, dt, dt_onset, clipped
+        )
     fn, fn_el, fn1, n0, n1, n2, s0, s1, s2, v0, v1, fs_tot, fs_tau = (sums[i] for i in range(13))
-    fs_pts = [fs_arr[i] for i in range(len(pts))]
     if p.face:
         kn_c, ks_c = kn, ks
         (f_s,) = hist
@@ -769,7 +806,7 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
     else:
         kn_c, ks_c = p.kn_line[k], p.ks_line[k]  # the weights above carry the areas
         f_s, fs_mom_tau = fs_tot, fs_tau
-        fs_new = tuple(fs_pts)
+        fs_new = tuple(fs_arr[i] for i in range(len(pts)))
     ft = f_s - beta * ks_c * v0
     # a moving wall's normal force acts along its normal (1, -slope) (not normalised: fn is
     # the horizontal component, as in rockjax.simulate_dem); the dashpot matrix keeps the
@@ -1568,7 +1605,7 @@ def simulate_assembly(
     n_in = max(1, math.ceil(dt_out / dt_target - 1e-9))
     step = dt_out / n_in
     st0 = initial_assembly_state(assembly, p, theta0, joint)
-    if not is_traced(p, st0, ag, ag_v, top, wall):
+    if not is_batched(p, st0, ag, ag_v, top, wall):
         p = dataclasses.replace(p, single_history=True)
     # the steps as arrays: traced, so a new step does not recompile (n_in is static)
     return _run(

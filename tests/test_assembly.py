@@ -318,24 +318,27 @@ def test_vmap_over_records_equals_loop():
     assert float(jnp.max(jnp.abs(loop))) > 1e-4  # it moved
 
 
-def test_eager_call_equals_jit_with_the_face_law():
-    """An eager call computes each face's end kinematics and contact law as separate XLA
-    computations (one history, ``single_history``), a traced call inlines them. Reference:
-    the same run under ``jax.jit``, to round-off of the peak (VMAP_RTOL: the same arithmetic,
-    grouped differently)."""
+def test_face_law_programs_agree():
+    """An eager or a jitted history computes each face's end kinematics and point law as
+    separate XLA computations (``single_history``); a batch (``vmap``) takes the face law's
+    points as scalars. Reference: the eager run of each record, to round-off of the peak
+    (VMAP_RTOL: the same arithmetic, grouped differently)."""
     wall = Assembly.stack([rj.Block(b=0.2, h=1.0)] * 2, top="restrained", overburden=5e3)
-    motion = rj.GroundMotion.sine_cycle(pga=-6.0, period=0.3, dt=0.01, duration=1.0)
+    base = rj.GroundMotion.sine_cycle(pga=1.0, period=0.3, dt=0.01, duration=1.0)
     dt = stable_dt_assembly(wall, 1e-3)
 
     def run(ag):
         r = simulate_assembly(wall, rj.GroundMotion(ag=ag, dt=0.01), beta=1e-3, dt=dt)
         return r.theta
 
-    eager = run(motion.ag)
-    jitted = jax.jit(run)(jnp.asarray(motion.ag))
+    ags = jnp.stack([a * jnp.asarray(base.ag) for a in (-6.0, 8.0)])
+    eager = jnp.stack([run(a) for a in ags])
+    jitted = jax.jit(run)(ags[0])
+    batched = jax.vmap(run)(ags)
     peak = float(jnp.max(jnp.abs(eager)))
     assert peak > 1e-3  # it rocked
-    assert float(jnp.max(jnp.abs(eager - jitted))) <= VMAP_RTOL * peak
+    assert float(jnp.max(jnp.abs(eager[0] - jitted))) <= VMAP_RTOL * peak
+    assert float(jnp.max(jnp.abs(eager - batched))) <= VMAP_RTOL * peak
 
 
 @pytest.mark.slow
