@@ -12,6 +12,7 @@ hook in its own scan. Derivations, the loading-rate study and the paper's four w
 docs/pushover.md.
 """
 
+import dataclasses
 import math
 
 import equinox as eqx
@@ -376,7 +377,10 @@ def _pushover_assembly(assembly, beta, d_over_b, duration, n_out, joint, phi_deg
     if duration is None:
         duration = PULL_TIME / p
     check_positive("duration", duration, "s", f"e.g. duration={PULL_TIME / p:.3g}.", scalar=True)
-    params = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg)
+    # one history (rockjax.multiblock, AssemblyParams.single_history)
+    params = dataclasses.replace(
+        assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg), single_history=True
+    )
     dt = stable_dt_assembly(assembly, beta, joint=joint)
     masses = [float(b.m) for b in blocks]
     total = sum(masses)
