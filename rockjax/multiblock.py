@@ -776,9 +776,9 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         step = width / (n_sub - 1)
         pts = [(lo + step * i, wts[i] * step) for i in range(n_sub)]
     if p.face and not p.single_history:
-        # in a batch the points as scalars: each is then a vector over the batch, and the
-        # per-point arrays of the reduction below would be (batch, points) arrays in the
-        # loop's memory (docs/assemblies.md, "Performance")
+        # in a batch the points as scalars: each is then a vector over the batch (the
+        # reduction below would work on (batch, points) arrays; docs/assemblies.md,
+        # "Performance")
         sums = _face_sums(p, pts, lo, width, ends, p.kn_line[k], beta, dt_onset, clipped)
         fs_arr = None
     else:
