@@ -637,11 +637,31 @@ def _quadratic_c(m0, m1, m2, p0, p1, q0, q1):
     ]
 
 
+def _sum_terms(wfn, wf_el, wn, wf, tau, slip, fs):
+    """The 13 quantities a face sums over its points (weights ``w`` included): ``w f``,
+    ``w f_el``, ``w f tau``, the dashpot weights' moments ``wn (1, tau, tau^2)`` (clipped) and
+    ``wf (1, tau, tau^2)``, ``wf slip (1, tau)`` and the point shear springs ``fs (1, tau)``.
+    Arrays over the points (:func:`_point_sums`) or scalars (:func:`_face_sums`)."""
+    return [
+        wfn,
+        wf_el,
+        wfn * tau,
+        wn,
+        wn * tau,
+        wn * tau * tau,
+        wf,
+        wf * tau,
+        wf * tau * tau,
+        wf * slip,
+        wf * slip * tau,
+        fs,
+        _mul(fs, tau),
+    ]
+
+
 def _face_sums(p: AssemblyParams, pts, lo, width, ends, kn, beta, dt_onset, clipped):
-    """The face law's sums over its Gauss points (see :func:`_point_sums`), the points as
-    scalars: ``sum w f``, ``sum w f_el``, ``sum w f tau``, the dashpot weights' moments
-    ``n0..n2`` (``s0..s2`` unclipped), ``sum w frac slip (1, tau)`` and two zeros (no
-    point shear springs)."""
+    """The face law's sums over its Gauss points (:func:`_sum_terms`, no point shear
+    springs), the points as scalars."""
     (d_lo, d_hi), (r_lo, r_hi) = (ends[0][4], ends[1][4]), (ends[0][5], ends[1][5])
     out = [0.0] * 13
     for t, w in pts:
@@ -650,11 +670,11 @@ def _face_sums(p: AssemblyParams, pts, lo, width, ends, kn, beta, dt_onset, clip
             d_lo + tau * (d_hi - d_lo), r_lo + tau * (r_hi - r_lo), kn, beta, p.dashpot, dt_onset
         )
         slip = ends[0][6] + tau * (ends[1][6] - ends[0][6])
-        wf, wfn = w * frac, w * f
+        wf = w * frac
         wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
-        terms = (wfn, w * f_el, wfn * tau, wn, wn * tau, wn * tau * tau, wf, wf * tau)
-        terms += (wf * tau * tau, wf * slip, wf * slip * tau)
-        out = [a + b for a, b in zip(out, terms + (0.0, 0.0))]
+        out = [
+            _plus(a, b) for a, b in zip(out, _sum_terms(w * f, w * f_el, wn, wf, tau, slip, 0.0))
+        ]
     return out
 
 
@@ -690,26 +710,7 @@ def _point_sums(p: AssemblyParams, k, pts, lo, width, ends, hist, kn, beta, dt, 
         _, fs_arr = shear_force(fs_old, slip, dt, ks_i, f_el, p.tan_phi, beta, frac)
         wf, wfn = wgt * frac, f
     wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
-    sums = jnp.sum(
-        jnp.stack(
-            [
-                wfn,
-                wf_el,
-                wfn * tau,
-                wn,
-                wn * tau,
-                wn * tau * tau,
-                wf,
-                wf * tau,
-                wf * tau * tau,
-                wf * slip,
-                wf * slip * tau,
-                fs_arr,
-                fs_arr * tau,
-            ]
-        ),
-        axis=-1,
-    )
+    sums = jnp.sum(jnp.stack(_sum_terms(wfn, wf_el, wn, wf, tau, slip, fs_arr)), axis=-1)
     return sums, fs_arr
 
 
