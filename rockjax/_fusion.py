@@ -3,7 +3,12 @@
 The steppers are unrolled scalar arithmetic, and XLA's CPU fusion copies a producer into every
 consumer it feeds: a value read by many parts of a step (the block elimination of an
 assembly, a moving wall's geometry) is then recomputed in each of them. ``optimization_barrier``
-does not survive to XLA:CPU's fusion; a ``cond`` does.
+does not survive to XLA:CPU's fusion; a ``cond`` does, and so does a reduction.
+
+:func:`sum_together` is the reduction: the face laws sum a dozen quantities over their
+integration points, all from the same point law, and one variadic reduction computes them in
+one loop that evaluates the point law once per point (summed one by one, or stacked and then
+summed, XLA:CPU evaluated the point law again for every sum).
 
 Under ``vmap`` the same ``cond`` costs time instead (its results are materialised as vectors
 and the batch's predicate reduced every step), so the contact law is kept whole only in one
@@ -40,3 +45,20 @@ def one_computation(f, *args):
         return jax.tree.map(lambda a: jnp.full(a.shape, jnp.nan, a.dtype), jax.eval_shape(run, d))
 
     return jax.lax.cond(ok, run, nan, dynamic)
+
+
+def sum_together(*terms):
+    """The sums of ``terms`` (arrays, broadcast to one shape) over their last axis, as one
+    XLA reduction with as many outputs: each element of every term is computed once, with what
+    the terms share, and the sums are computed once, however many consumers read them.
+
+    Measured: the integrated face law's sums over its Gauss points as this reduction instead
+    of sums of scalars (docs/benchmarks.md, "One reduction per face").
+    """
+    shape = jnp.broadcast_shapes(*(jnp.shape(t) for t in terms))
+    ops = tuple(jnp.broadcast_to(jnp.asarray(t, float), shape) for t in terms)
+
+    def add(a, b):
+        return tuple(x + y for x, y in zip(a, b))
+
+    return jax.lax.reduce(ops, tuple(0.0 for _ in ops), add, (len(shape) - 1,))

@@ -59,10 +59,10 @@ from ._checks import (
     check_scalar,
     concrete,
 )
-from ._fusion import one_computation
+from ._fusion import one_computation, sum_together
 from .assembly import Assembly
 from .block import Block
-from .compilation import bucket_length, is_traced, notice_once, pad_to
+from .compilation import bucket_length, is_batched, is_traced, notice_once, pad_to
 from .constants import G
 from .contact import (
     Joint,
@@ -140,6 +140,9 @@ class DemParams(eqx.Module):
     # one history outside any transform: the contact forces are computed as one XLA
     # computation (docs/benchmarks.md, "One history")
     single_history: bool = eqx.field(static=True, default=False)
+    # a batch (vmap): the face law sums its points one by one (docs/benchmarks.md, "One
+    # reduction per face")
+    batched: bool = eqx.field(static=True, default=False)
 
 
 class DemState(eqx.Module):
@@ -614,26 +617,39 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
         # linear in t, changes sign; the pieces either side are then smooth
         q_lo, q_hi = d_lo + beta * ends[0][3], d_hi + beta * ends[1][3]
         cuts = insert_cut(cuts, crossing(lo, hi, q_lo, q_hi))
-    fn = fn_el = mom_n = f_rx = 0.0
-    n0 = n1 = n2 = 0.0  # integrals of frac, frac * arm_n, frac * arm_n^2
-    s0 = s1 = s2 = 0.0  # integrals of frac, frac * arm_s, frac * arm_s^2
-    v0 = v1 = 0.0  # integrals of frac * slip, frac * slip * arm_s
+    pts = []
     for a, b_ in zip(cuts[:-1], cuts[1:]):
         mid, half = 0.5 * (a + b_), 0.5 * (b_ - a)
-        for xg in _GAUSS_X:
-            rx, ry, delta, delta_dot, slip = at(mid + half * xg)
-            f, f_el, frac = normal_force(delta, delta_dot, kn, beta, params.dashpot, dt_onset)
-            # lever arms (moment = ry Fx - rx Fy) of the normal and the shear force
-            arm_n, arm_s = (ry, -rx) if wall else (-rx, ry)
-            wf = half * frac
-            fn, fn_el, mom_n = fn + half * f, fn_el + half * f_el, mom_n + half * f * arm_n
-            if motion is not None:
-                f_rx = f_rx + half * f * rx
-            # a clipped dashpot acts only where the total force is compressive
-            wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
-            n0, n1, n2 = n0 + wn, n1 + wn * arm_n, n2 + wn * arm_n * arm_n
-            s0, s1, s2 = s0 + wf, s1 + wf * arm_s, s2 + wf * arm_s * arm_s
-            v0, v1 = v0 + wf * slip, v1 + wf * slip * arm_s
+        pts += [(mid + half * xg, half) for xg in _GAUSS_X]
+
+    def terms(t, w):
+        # the integrands at points t with weights w (scalars or arrays): f, f_el, f arm_n; the
+        # dashpot weights frac (clipped) times (1, arm_n, arm_n^2) and frac times
+        # (1, arm_s, arm_s^2); frac slip (1, arm_s); and, for a moving wall, f rx
+        rx, ry, delta, delta_dot, slip = at(t)
+        f, f_el, frac = normal_force(delta, delta_dot, kn, beta, params.dashpot, dt_onset)
+        # lever arms (moment = ry Fx - rx Fy) of the normal and the shear force
+        arm_n, arm_s = (ry, -rx) if wall else (-rx, ry)
+        wfn, wf = w * f, w * frac
+        # a clipped dashpot acts only where the total force is compressive
+        wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
+        out = [wfn, w * f_el, wfn * arm_n, wn, wn * arm_n, wn * arm_n * arm_n]
+        out += [wf, wf * arm_s, wf * arm_s * arm_s, wf * slip, wf * slip * arm_s]
+        return out + ([wfn * rx] if motion is not None else [])
+
+    if params.batched:
+        # in a batch every point's terms are vectors over the batch, summed point by point
+        # (as one reduction over (batch, points) arrays, XLA:CPU loops along rows of a few
+        # points; docs/benchmarks.md, "One reduction per face")
+        sums = [sum(col) for col in zip(*(terms(t, w) for t, w in pts))]
+    else:
+        # the points as one array and the sums one reduction: the point law is evaluated
+        # once per point for all sums (rockjax._fusion.sum_together)
+        t = jnp.stack([jnp.asarray(q[0], float) for q in pts])
+        w = jnp.stack([jnp.asarray(q[1], float) for q in pts])
+        sums = sum_together(*terms(t, w))
+    fn, fn_el, mom_n, n0, n1, n2, s0, s1, s2, v0, v1 = sums[:11]
+    f_rx = sums[11] if motion is not None else 0.0
     # shear: one spring per face; the previous step's penetration is delta - dt delta_dot
     # (the lagged velocity is the one that took the block from there to here)
     (f_s,) = hist
@@ -1232,6 +1248,8 @@ def simulate_dem(
     # step as an array: traced, so a new step (a new beta) does not recompile
     if is_traced(params, state0, ag, ag_v, wall, dt):
         # inside the caller's jit/vmap/grad: their transform fixes the shapes
+        if is_batched(params, state0, ag, ag_v, wall, dt):
+            params = dataclasses.replace(params, batched=True)
         return run_prepared(
             params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, save, throw, wall
         )

@@ -45,7 +45,7 @@ from ._checks import (
     concrete,
     is_array_pair,
 )
-from ._fusion import one_computation
+from ._fusion import one_computation, sum_together
 from .assembly import Assembly
 from .block import Block
 from .building import ShearBuilding
@@ -120,9 +120,8 @@ class AssemblyParams(eqx.Module):
     one_sided: bool = eqx.field(static=True)
     links: tuple = eqx.field(static=True, default=())
     row: bool = eqx.field(static=True, default=False)
-    # one history, not a batch (vmap): each face's end kinematics and contact law are
-    # computed as one XLA computation each; a batch takes the face law's points as scalars
-    # (docs/assemblies.md, "Performance")
+    # one history, not a batch (vmap): each face's end kinematics are computed as one XLA
+    # computation (docs/assemblies.md, "Performance")
     single_history: bool = eqx.field(static=True, default=False)
 
     @property
@@ -640,12 +639,13 @@ def _quadratic_c(m0, m1, m2, p0, p1, q0, q1):
 def _sum_terms(wfn, wf_el, wn, wf, tau, slip, fs):
     """The 13 quantities a face sums over its points (weights ``w`` included): ``w f``,
     ``w f_el``, ``w f tau``, the dashpot weights' moments ``wn (1, tau, tau^2)`` (clipped) and
-    ``wf (1, tau, tau^2)``, ``wf slip (1, tau)`` and the point shear springs ``fs (1, tau)``.
-    Arrays over the points (:func:`_point_sums`) or scalars (:func:`_face_sums`)."""
+    ``wf (1, tau, tau^2)``, ``wf slip (1, tau)`` and the point shear springs ``fs (1, tau)``;
+    Python zeros where a joint has none (the face law's point springs, the sub-contacts'
+    ``f_el``)."""
     return [
         wfn,
         wf_el,
-        wfn * tau,
+        _mul(wfn, tau),
         wn,
         wn * tau,
         wn * tau * tau,
@@ -659,58 +659,37 @@ def _sum_terms(wfn, wf_el, wn, wf, tau, slip, fs):
     ]
 
 
-def _face_sums(p: AssemblyParams, pts, lo, width, ends, kn, beta, dt_onset, clipped):
-    """The face law's sums over its Gauss points (:func:`_sum_terms`, no point shear
-    springs), the points as scalars."""
-    (d_lo, d_hi), (r_lo, r_hi) = (ends[0][4], ends[1][4]), (ends[0][5], ends[1][5])
-    out = [0.0] * 13
-    for t, w in pts:
-        tau = (t - lo) / width
-        f, f_el, frac = normal_force(
-            d_lo + tau * (d_hi - d_lo), r_lo + tau * (r_hi - r_lo), kn, beta, p.dashpot, dt_onset
-        )
-        slip = ends[0][6] + tau * (ends[1][6] - ends[0][6])
-        wf = w * frac
-        wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
-        out = [
-            _plus(a, b) for a, b in zip(out, _sum_terms(w * f, w * f_el, wn, wf, tau, slip, 0.0))
-        ]
-    return out
-
-
 def _point_sums(p: AssemblyParams, k, pts, lo, width, ends, hist, kn, beta, dt, dt_onset, clipped):
-    """The sums over a face's points ``pts`` (``(t, weight)``) as one reduction, and the
-    point shear springs (zeros for the face law): see :func:`_interface`."""
+    """The sums over a face's points ``pts`` (``(t, weight)``, :func:`_sum_terms`) and the
+    point shear springs (None for the face law): see :func:`_interface`.
+
+    The points are one array and the sums one reduction (:func:`rockjax._fusion.sum_together`),
+    which evaluates the point law once per point for all the sums and keeps the sums whole for
+    the many consumers that read them, in a history and in a batch alike."""
     d_lo, d_hi = ends[0][4], ends[1][4]
     r_lo, r_hi = ends[0][5], ends[1][5]
-    # all points at once: the sums over the face come out of one reduction, computed once
-    # (as scalars, XLA:CPU recomputed them inside every fusion that consumed them in a
-    # single history)
     t = jnp.stack([jnp.asarray(q[0], float) for q in pts])
     wgt = jnp.stack([jnp.asarray(q[1], float) for q in pts])
     tau = (t - lo) / width
     delta = d_lo + tau * (d_hi - d_lo)
     rate = r_lo + tau * (r_hi - r_lo)
     slip = ends[0][6] + tau * (ends[1][6] - ends[0][6])
-    wf_el = jnp.zeros_like(t)
-    if p.face:  # one history (a batch takes _face_sums): the point law as one computation
-        f, f_el, frac = one_computation(
-            lambda d, r, k_, b_: normal_force(d, r, k_, b_, p.dashpot, dt_onset),
-            delta,
-            rate,
-            kn,
-            beta,
-        )
+    if p.face:
+        f, f_el, frac = normal_force(delta, rate, kn, beta, p.dashpot, dt_onset)
         wf, wfn, wf_el = wgt * frac, wgt * f, wgt * f_el
-        fs_arr = jnp.zeros_like(t)
+        fs_arr, fs_sum = None, 0.0
     else:
         kn_i, ks_i = p.kn_line[k] * wgt, p.ks_line[k] * wgt
         f, f_el, frac = normal_force(delta, rate, kn_i, beta, p.dashpot, dt_onset)
         fs_old = jnp.stack([jnp.asarray(v, float) for v in hist])
         _, fs_arr = shear_force(fs_old, slip, dt, ks_i, f_el, p.tan_phi, beta, frac)
-        wf, wfn = wgt * frac, f
+        wf, wfn, wf_el, fs_sum = wgt * frac, f, 0.0, fs_arr
     wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
-    sums = jnp.sum(jnp.stack(_sum_terms(wfn, wf_el, wn, wf, tau, slip, fs_arr)), axis=-1)
+    terms = _sum_terms(wfn, wf_el, wn, wf, tau, slip, fs_sum)
+    live = [i for i, term in enumerate(terms) if not _zero(term)]
+    sums = [0.0] * len(terms)
+    for i, total in zip(live, sum_together(*(terms[i] for i in live))):
+        sums[i] = total
     return sums, fs_arr
 
 
@@ -776,16 +755,9 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         wts[0] = wts[-1] = 0.5
         step = width / (n_sub - 1)
         pts = [(lo + step * i, wts[i] * step) for i in range(n_sub)]
-    if p.face and not p.single_history:
-        # in a batch the points as scalars: each is then a vector over the batch (the
-        # reduction below would work on (batch, points) arrays; docs/assemblies.md,
-        # "Performance")
-        sums = _face_sums(p, pts, lo, width, ends, p.kn_line[k], beta, dt_onset, clipped)
-        fs_arr = None
-    else:
-        sums, fs_arr = _point_sums(
-            p, k, pts, lo, width, ends, hist, p.kn_line[k], beta, dt, dt_onset, clipped
-        )
+    sums, fs_arr = _point_sums(
+        p, k, pts, lo, width, ends, hist, p.kn_line[k], beta, dt, dt_onset, clipped
+    )
     fn, fn_el, fn1, n0, n1, n2, s0, s1, s2, v0, v1, fs_tot, fs_tau = (sums[i] for i in range(13))
     if p.face:
         kn_c, ks_c = kn, ks
