@@ -10,11 +10,11 @@ integration points, all from the same point law, and one variadic reduction comp
 one loop that evaluates the point law once per point (summed one by one, or stacked and then
 summed, XLA:CPU evaluated the point law again for every sum).
 
-Under ``vmap`` the same ``cond`` costs time instead (its results are materialised as vectors
-and the batch's predicate reduced every step), so the contact law is kept whole only in one
-history (``single_history`` of the DEM's parameters: an eager call; of an assembly's: any
-call that is not batched; docs/benchmarks.md "One history", docs/assemblies.md
-"Performance").
+Under ``vmap`` a ``cond`` costs time instead (its results are materialised as vectors and the
+batch's predicate reduced every step), so :func:`one_computation` is used in one history
+(``single_history`` of the DEM's parameters, an eager call: its contact forces; of an
+assembly's, any call that is not batched: each face's end kinematics) and for an assembly's
+block elimination; docs/benchmarks.md "One history", docs/assemblies.md "Performance".
 """
 
 import equinox as eqx
