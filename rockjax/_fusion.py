@@ -47,18 +47,31 @@ def one_computation(f, *args):
     return jax.lax.cond(ok, run, nan, dynamic)
 
 
+def _add(a, b):
+    return tuple(x + y for x, y in zip(a, b))
+
+
+@jax.custom_jvp
+def _sums(*terms):
+    return jax.lax.reduce(terms, tuple(0.0 for _ in terms), _add, (terms[0].ndim - 1,))
+
+
+@_sums.defjvp
+def _sums_jvp(primals, tangents):
+    # the sums are linear: each tangent summed by JAX's own reduction, which forward mode,
+    # reverse mode and vmap all handle (JAX's rule for a variadic reduction fails on a term
+    # whose tangent is a symbolic zero, e.g. one that does not depend on the input)
+    return _sums(*primals), tuple(jnp.sum(t, axis=-1) for t in tangents)
+
+
 def sum_together(*terms):
     """The sums of ``terms`` (arrays, broadcast to one shape) over their last axis, as one
     XLA reduction with as many outputs: each element of every term is computed once, with what
     the terms share, and the sums are computed once, however many consumers read them.
+    Derivatives sum each term's tangent on its own.
 
     Measured: the integrated face law's sums over its Gauss points as this reduction instead
     of sums of scalars (docs/benchmarks.md, "One reduction per face").
     """
     shape = jnp.broadcast_shapes(*(jnp.shape(t) for t in terms))
-    ops = tuple(jnp.broadcast_to(jnp.asarray(t, float), shape) for t in terms)
-
-    def add(a, b):
-        return tuple(x + y for x, y in zip(a, b))
-
-    return jax.lax.reduce(ops, tuple(0.0 for _ in ops), add, (len(shape) - 1,))
+    return _sums(*(jnp.broadcast_to(jnp.asarray(t, float), shape) for t in terms))
