@@ -169,14 +169,23 @@ def is_traced(*xs) -> bool:
     return any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(xs))
 
 
+def batch_size(*xs) -> int:
+    """The number of lanes of the largest ``vmap`` batch among the leaves of ``xs`` (nested
+    ``vmap``s multiply; a forward-mode tracer counts through its primal), 0 if none is
+    batched. A heuristic for choosing the faster program (a batch's tracer carries a
+    ``batch_dim``); a miss costs time, never a result."""
+
+    def lanes(x):
+        if getattr(x, "batch_dim", None) is not None and hasattr(x, "val"):
+            inner = lanes(x.val)
+            return int(x.val.shape[x.batch_dim]) * max(inner, 1)
+        if hasattr(x, "primal"):
+            return lanes(x.primal)
+        return 0
+
+    return max((lanes(x) for x in jax.tree.leaves(xs) if isinstance(x, jax.core.Tracer)), default=0)
+
+
 def is_batched(*xs) -> bool:
-    """True if any leaf of ``xs`` is batched by ``vmap`` (directly, or as the primal of a
-    forward-mode tracer). A heuristic for choosing the faster program (a batch's tracer
-    carries a ``batch_dim``); a miss costs time, never a result."""
-
-    def batched(x):
-        return getattr(x, "batch_dim", None) is not None or (
-            hasattr(x, "primal") and batched(x.primal)
-        )
-
-    return any(isinstance(x, jax.core.Tracer) and batched(x) for x in jax.tree.leaves(xs))
+    """True if any leaf of ``xs`` is batched by ``vmap`` (:func:`batch_size` > 0)."""
+    return batch_size(*xs) > 0

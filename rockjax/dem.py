@@ -62,7 +62,7 @@ from ._checks import (
 from ._fusion import one_computation, sum_together
 from .assembly import Assembly
 from .block import Block
-from .compilation import bucket_length, is_batched, is_traced, notice_once, pad_to
+from .compilation import batch_size, bucket_length, is_traced, notice_once, pad_to
 from .constants import G
 from .contact import (
     Joint,
@@ -113,6 +113,14 @@ SCAN_CHUNK = 256
 padded from 2 000 to 32 768 samples runs 120 empty chunks instead of 30 768 samples."""
 
 
+POINTWISE_BATCH = 128
+"""Batches (``vmap``) of this many lanes or more sum the face law's Gauss points one by one:
+under ``vmap`` the single reduction works on ``(batch, points)`` rows of six or eight points,
+slower than per-point vectors at 512-8192 lanes and as fast at 64; smaller batches (the
+calibration's, of 1-9 lanes) keep the reduction, which compiles and runs faster there
+(docs/benchmarks.md, "One reduction per face")."""
+
+
 class DemParams(eqx.Module):
     """Everything the DEM step needs, as arrays (built by :func:`dem_params`)."""
 
@@ -140,8 +148,8 @@ class DemParams(eqx.Module):
     # one history outside any transform: the contact forces are computed as one XLA
     # computation (docs/benchmarks.md, "One history")
     single_history: bool = eqx.field(static=True, default=False)
-    # a batch (vmap): the face law sums its points one by one (docs/benchmarks.md, "One
-    # reduction per face")
+    # a large batch (vmap, POINTWISE_BATCH lanes or more): the face law sums its points one
+    # by one (docs/benchmarks.md, "One reduction per face")
     batched: bool = eqx.field(static=True, default=False)
 
 
@@ -638,9 +646,9 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
         return out + ([wfn * rx] if motion is not None else [])
 
     if params.batched:
-        # in a batch every point's terms are vectors over the batch, summed point by point
-        # (as one reduction over (batch, points) arrays, XLA:CPU loops along rows of a few
-        # points; docs/benchmarks.md, "One reduction per face")
+        # in a large batch every point's terms are vectors over the batch, summed point by
+        # point (as one reduction over (batch, points) arrays, XLA:CPU loops along rows of a
+        # few points; POINTWISE_BATCH)
         sums = [sum(col) for col in zip(*(terms(t, w) for t, w in pts))]
     else:
         # the points as one array and the sums one reduction: the point law is evaluated
@@ -1248,7 +1256,7 @@ def simulate_dem(
     # step as an array: traced, so a new step (a new beta) does not recompile
     if is_traced(params, state0, ag, ag_v, wall, dt):
         # inside the caller's jit/vmap/grad: their transform fixes the shapes
-        if is_batched(params, state0, ag, ag_v, wall, dt):
+        if batch_size(params, state0, ag, ag_v, wall, dt) >= POINTWISE_BATCH:
             params = dataclasses.replace(params, batched=True)
         return run_prepared(
             params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, save, throw, wall
