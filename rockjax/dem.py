@@ -150,7 +150,7 @@ class DemParams(eqx.Module):
     single_history: bool = eqx.field(static=True, default=False)
     # a large batch (vmap, POINTWISE_BATCH lanes or more): the face law sums its points one
     # by one (docs/benchmarks.md, "One reduction per face")
-    batched: bool = eqx.field(static=True, default=False)
+    pointwise_sums: bool = eqx.field(static=True, default=False)
 
 
 class DemState(eqx.Module):
@@ -645,7 +645,7 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
         out += [wf, wf * arm_s, wf * arm_s * arm_s, wf * slip, wf * slip * arm_s]
         return out + ([wfn * rx] if motion is not None else [])
 
-    if params.batched:
+    if params.pointwise_sums:
         # in a large batch every point's terms are vectors over the batch, summed point by
         # point (as one reduction over (batch, points) arrays, XLA:CPU loops along rows of a
         # few points; POINTWISE_BATCH)
@@ -1257,7 +1257,7 @@ def simulate_dem(
     if is_traced(params, state0, ag, ag_v, wall, dt):
         # inside the caller's jit/vmap/grad: their transform fixes the shapes
         if batch_size(params, state0, ag, ag_v, wall, dt) >= POINTWISE_BATCH:
-            params = dataclasses.replace(params, batched=True)
+            params = dataclasses.replace(params, pointwise_sums=True)
         return run_prepared(
             params, state0, ag, ag_v, np.asarray(step), dt_out, n_in, save, throw, wall
         )
