@@ -68,11 +68,15 @@ from .problems import stats_batch as stats_batch
 from .result import BOUNCE_BANDS as BOUNCE_BANDS
 from .result import BOUNCE_FRACTIONS as BOUNCE_FRACTIONS
 from .result import E_TOL as E_TOL
+from .result import HISTORY_TOL as HISTORY_TOL
 from .result import MIN_ENERGY_RATIO as MIN_ENERGY_RATIO
 from .result import Calibration as Calibration
 from .result import HistoryFit as HistoryFit
+from .result import bounce_peaks as bounce_peaks
 from .result import bounces_missed as bounces_missed
 from .result import e_missed as e_missed
+from .result import history_missed as history_missed
+from .result import history_peak_gap as history_peak_gap
 from .result import verdict as verdict
 
 __all__ = [
@@ -84,12 +88,14 @@ __all__ = [
     "EProblem",
     "FACADE_BETA_MAX_HCRIT",
     "GAP_TOL",
+    "HISTORY_TOL",
     "HistoryFit",
     "HistoryProblem",
     "METHODS",
     "MIN_ENERGY_RATIO",
     "MODES",
     "SAVE_DT",
+    "bounce_peaks",
     "bounces_missed",
     "default_target",
     "dem_run",
@@ -99,6 +105,8 @@ __all__ = [
     "fit_e",
     "fit_history",
     "history_loss",
+    "history_missed",
+    "history_peak_gap",
     "history_problem",
     "housner_reference",
     "last_compared_time",

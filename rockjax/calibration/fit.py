@@ -46,11 +46,13 @@ from .problems import (
     stats_batch,
 )
 from .result import (
+    MIN_ENERGY_RATIO,
     Calibration,
     HistoryFit,
     bounce_e_exp,
     bounces_missed,
     e_missed,
+    history_missed,
     restitution,
     verdict,
 )
@@ -567,7 +569,9 @@ def fit_history(
         fitted, beta=beta, mode=mode, theta0=theta0, duration=float(t[-1]), save_dt=save_dt
     )
     loss = float(history_loss(u, problem))
-    converged, reason = verdict(converged, [], loss=loss, beta=beta, b=b)
+    n_compared = int(np.sum(metrics.bounce_weights(problem.measured, MIN_ENERGY_RATIO)[0]))
+    missed = history_missed(dem, measured, n_compared, float(problem.t_scale), mode)
+    converged, reason = verdict(converged, missed, loss=loss, beta=beta, b=b)
     return HistoryFit(
         beta=beta,
         b=b,

@@ -680,15 +680,21 @@ def history_problem(
         raise ValueError(f"beta0 must be > 0 s (the fit works on log beta); got {beta0}.")
     wide = eqx.tree_at(lambda k: k.b, block, 1.5 * block.b)
     dt = 0.8 * min(stable_dt(block, 20 * beta0, mode=mode), stable_dt(wide, 20 * beta0, mode=mode))
+    t_scale = float(ref.t[1])  # the first bounce's peak time: about one impact interval
+    # The DEM runs two such intervals past the last compared measured peak, whatever the
+    # record's length: a trial whose bounces come later than the measured ones (a narrower b,
+    # less damping) must still show them, or the loss jumps by the bounce it missed (the
+    # record's end used to cut them off, and L-BFGS stopped at that cliff).
+    t_last = float(np.max(np.where(np.asarray(w) > 0, np.asarray(ref.t), 0.0)))
     return HistoryProblem(
         block=block,
         theta0=jnp.asarray(theta0),
         measured=ref,
         beta_ref=jnp.asarray(beta0),
-        t_scale=jnp.asarray(float(ref.t[1]) if bool(ref.valid[1]) else t[-1]),
+        t_scale=jnp.asarray(t_scale),
         mode=mode,
         n_bounces=n_bounces,
-        duration=float(t[-1]),
+        duration=t_last + 2.0 * t_scale,
         save_dt=save_dt,
         dt=float(dt),
         hysteresis=hyst,
