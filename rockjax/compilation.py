@@ -2,7 +2,7 @@
 
 XLA compiles a function once per combination of input shapes. A simulator whose arrays have the
 record's length would compile again for every record of a new length (about a second each, more
-under ``grad``). rockjax avoids this in three ways:
+under ``grad``). rockjax avoids this, and says when it compiles:
 
 * **Buckets.** A record of ``n`` samples is padded to :func:`bucket_length` ``(n)`` samples and its
   true length travels as data (an integer array), so every record whose length falls in one
@@ -16,6 +16,10 @@ under ``grad``). rockjax avoids this in three ways:
   does, so the eager calls of ``simulate_housner`` and ``simulate_dem`` compile their runs
   without it and check the returned status in Python afterwards (the same errors); under a
   caller's ``jit`` with ``throw=True`` the check stays in the program, which is then not cached.
+* **Kept programs.** With the cache on, the solvers' programs (:func:`persistent_jit`) are
+  also kept traced and lowered (``jax.export``) in its ``exported`` folder, so a new process
+  neither traces nor lowers them: the first ``fit_beta`` of a process takes about 2.5 s
+  instead of 6-7 s.
 * **Notices.** The first call that compiles a solver says so in one line ("compiling the Housner
   solver for records of <= 32768 samples (once per session)..."), through the ``rockjax``
   logger when logging is configured, else on stderr. Silence them with
@@ -24,13 +28,21 @@ under ``grad``). rockjax avoids this in three ways:
 
 from __future__ import annotations
 
+import collections
+import dataclasses
+import enum
+import functools
+import hashlib
+import importlib.metadata
 import logging
 import math
 import os
+import pickle
 import sys
 from collections.abc import Hashable
 from pathlib import Path
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -50,9 +62,11 @@ CACHE_ENV = "ROCKJAX_CACHE_DIR"
 """Environment variable that moves the persistent compilation cache (a folder) or, set to
 ``off``, ``0``, ``no``, ``false`` or empty, disables it."""
 
-CACHE_MIN_COMPILE_S = 0.2
+CACHE_MIN_COMPILE_S = 0.0
 """Programs that took less than this to compile [s] are not written to the persistent cache
-(JAX's default is 1 s; the solvers' smaller programs add up at startup)."""
+(JAX's default is 1 s). Every program is written: the small eager operations of a set-up (a
+block's derived quantities, the checks) take 30-40 ms each to compile, and in the first
+``fit_beta`` of a process they added up to about 1 s (docs/benchmarks.md, "Compilation")."""
 
 _OFF = ("", "0", "off", "no", "false", "none")
 _LOG = logging.getLogger("rockjax")
@@ -139,6 +153,7 @@ def enable_cache(directory: str | os.PathLike | None = None) -> Path | None:
         return None
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", CACHE_MIN_COMPILE_S)
+    _EXPORT["cache"] = path
     return path
 
 
@@ -189,3 +204,248 @@ def batch_size(*xs) -> int:
 def is_batched(*xs) -> bool:
     """True if any leaf of ``xs`` is batched by ``vmap`` (:func:`batch_size` > 0)."""
     return batch_size(*xs) > 0
+
+
+# --------------------------------------------------------------------------- traced programs on disk
+
+EXPORT_SUBDIR = "exported"
+"""Folder, inside the persistent cache, of the traced and lowered programs that
+:func:`persistent_jit` keeps (``jax.export`` artifacts)."""
+
+_EXPORT: dict[str, Path | None] = {"cache": None}  # the folder enable_cache last set
+_LIBRARIES = (
+    "rockjax",
+    "jax",
+    "jaxlib",
+    "equinox",
+    "diffrax",
+    "optax",
+    "lineax",
+    "optimistix",
+    "numpy",
+    "builtins",
+)
+"""Code whose content the key of a kept program covers: rockjax by the hash of its source,
+the others by their versions. A static argument of any other code (a user's function or
+class) is not keyed, so such a call is traced as usual."""
+
+_NAMES: dict[int, tuple[object, str]] = {}
+
+
+def stable_name(obj, name: str):
+    """Give ``obj`` (a callable built at import, e.g. a wrapped loss) the ``name`` that keys it
+    in :func:`persistent_jit`'s kept programs; returns ``obj``. Use only for objects of rockjax
+    that are built once, at import, from rockjax code."""
+    _NAMES[id(obj)] = (obj, name)
+    return obj
+
+
+class _Unkeyed(Exception):
+    """A static argument whose content no key can describe: the call is traced as usual."""
+
+
+def _root(module: str | None) -> str:
+    return (module or "").split(".")[0]
+
+
+def _import_path(obj) -> str:
+    """``module.qualname`` of a function, class or wrapped function (whose ``__wrapped__``
+    names it) that importing that path gives back."""
+    for named in (obj, getattr(obj, "__wrapped__", None)):
+        module = getattr(named, "__module__", None)
+        qualname = getattr(named, "__qualname__", None)
+        if not module or not qualname or _root(module) not in _LIBRARIES or "<" in qualname:
+            continue
+        target = sys.modules.get(module)
+        for part in qualname.split("."):
+            target = getattr(target, part, None)
+        if target is obj:
+            return f"{module}.{qualname}"
+    raise _Unkeyed
+
+
+def _describe(x) -> str:
+    """Everything about one argument that shapes the traced program, as text: arrays by shape,
+    dtype and weak type; Python values exactly; modules field by field; functions and classes
+    by import path. Raises ``_Unkeyed`` for anything else."""
+    if id(x) in _NAMES and _NAMES[id(x)][0] is x:
+        return f"named:{_NAMES[id(x)][1]}"
+    if eqx.is_array(x):
+        weak = bool(getattr(x, "weak_type", False))
+        return f"array{tuple(np.shape(x))}:{np.dtype(x.dtype)}:{weak}"
+    if x is None or isinstance(x, (bool, int, str, bytes)):
+        return f"{type(x).__name__}:{x!r}"
+    if isinstance(x, float):
+        return f"float:{x.hex()}"
+    if isinstance(x, (tuple, list)):
+        kind = type(x)
+        name = kind.__name__ if kind in (tuple, list) else _import_path(kind)
+        return f"{name}({','.join(_describe(v) for v in x)})"
+    if isinstance(x, dict):
+        items = sorted((_describe(k), _describe(v)) for k, v in x.items())
+        return "dict(" + ",".join(f"{k}={v}" for k, v in items) + ")"
+    if isinstance(x, type):
+        return f"class:{_import_path(x)}"
+    if isinstance(x, enum.Enum):
+        return f"enum:{_import_path(type(x))}.{x.name}"
+    if isinstance(x, np.dtype):
+        return f"dtype:{x}"
+    if dataclasses.is_dataclass(x):  # equinox modules: every field, static or not
+        fields = ",".join(
+            f"{f.name}={_describe(getattr(x, f.name, None))}" for f in dataclasses.fields(x)
+        )
+        return f"{_import_path(type(x))}({fields})"
+    if callable(x):
+        return f"fn:{_import_path(x)}"
+    raise _Unkeyed
+
+
+@functools.cache
+def _environment() -> str:
+    """What else shapes a traced program: rockjax's source, the libraries' versions, the
+    backend and the configuration that tracing reads."""
+    digest = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.rglob("*.py")):
+        digest.update(path.relative_to(Path(__file__).parent).as_posix().encode())
+        digest.update(path.read_bytes())
+    versions = []
+    for dist in ("jax", "jaxlib", "equinox", "diffrax", "optax", "lineax", "optimistix", "numpy"):
+        try:
+            versions.append(f"{dist}={importlib.metadata.version(dist)}")
+        except importlib.metadata.PackageNotFoundError:
+            versions.append(f"{dist}=none")
+    config = [
+        f"x64={jax.config.jax_enable_x64}",
+        f"backend={jax.default_backend()}",
+        f"promotion={jax.config.jax_numpy_dtype_promotion}",
+        f"matmul={jax.config.jax_default_matmul_precision}",
+        f"EQX_ON_ERROR={os.environ.get('EQX_ON_ERROR', '')}",
+    ]
+    return digest.hexdigest() + ";" + ";".join(versions + config)
+
+
+def _export_dir() -> Path | None:
+    """The kept programs' folder while JAX's cache is the one :func:`enable_cache` set."""
+    cache = _EXPORT["cache"]
+    if cache is None or jax.config.jax_compilation_cache_dir != str(cache):
+        return None
+    return cache / EXPORT_SUBDIR
+
+
+@dataclasses.dataclass(frozen=True)
+class _Slot:
+    """Place of the ``index``-th array output in a kept program's output skeleton."""
+
+    index: int
+
+
+def persistent_jit(fn):
+    """``equinox.filter_jit(fn)`` whose traced and lowered program is also kept on disk when the
+    persistent cache is on (:func:`enable_cache`), so that a new process skips tracing and
+    lowering (``jax.export``); XLA's compiled program then comes from JAX's own cache.
+
+    A kept program is keyed by everything that shapes it: the arguments (arrays by shape, dtype
+    and weak type; Python values exactly; modules field by field; functions and classes by
+    import path), the hash of rockjax's source, the libraries' versions, the backend and the
+    configuration that tracing reads. Only functions of rockjax (or of the libraries) are kept.
+    A call inside ``jit``, ``vmap`` or ``grad``, or with a function or class from elsewhere as
+    an argument, is ``filter_jit``'s. A program that cannot be exported (one that calls back
+    into Python, as ``eqx.error_if`` does) runs as traced, in this process only. A damaged or
+    unreadable kept program is exported again. ``wrapped.sources`` counts how each program was
+    obtained (``"exported"``, ``"loaded"``, ``"not kept"``; ``"plain"``: calls, with the
+    cache on, passed to ``filter_jit``).
+    """
+    jitted = eqx.filter_jit(fn)
+    name = f"{fn.__module__}.{fn.__qualname__}"
+    # its code is covered by the key only if it is rockjax's (the source hash) or a library's
+    keyed = _root(fn.__module__) in _LIBRARIES and "<" not in fn.__qualname__
+    programs: dict = {}
+    plain = object()
+    sources: collections.Counter = collections.Counter()
+
+    def export(args, kwargs, dynamic, static, leaves):
+        folder = _export_dir()
+        if not keyed:
+            return plain
+        try:
+            text = "|".join((_environment(), name, _describe((args, kwargs))))
+        except (_Unkeyed, RecursionError):
+            return plain
+        key = hashlib.sha256(text.encode()).hexdigest()[:40]
+        path = folder / f"{fn.__name__}-{key}.jaxexp"
+        if path.is_file():
+            try:
+                blob = pickle.loads(path.read_bytes())
+                exported = jax.export.deserialize(bytearray(blob["exported"]))
+                sources["loaded"] += 1
+                return jax.jit(exported.call), blob["skeleton"]
+            except Exception:  # damaged, or written by an incompatible version: export again
+                pass
+        treedef = jax.tree.structure(dynamic)
+        skeleton = {}
+
+        def flat(*xs):
+            a, k = eqx.combine(jax.tree.unflatten(treedef, xs), static)
+            out_dynamic, out_static = eqx.partition(fn(*a, **k), eqx.is_array)
+            out_leaves, out_def = jax.tree.flatten(out_dynamic)
+            slots = [_Slot(i) for i in range(len(out_leaves))]
+            skeleton["out"] = eqx.combine(jax.tree.unflatten(out_def, slots), out_static)
+            return out_leaves
+
+        specs = [
+            jax.ShapeDtypeStruct(
+                np.shape(x), np.dtype(x.dtype), weak_type=getattr(x, "weak_type", False)
+            )
+            for x in leaves
+        ]
+        flat_jit = jax.jit(flat)
+        try:
+            exported = jax.export.export(flat_jit)(*specs)
+            blob = pickle.dumps({"exported": exported.serialize(), "skeleton": skeleton["out"]})
+        except Exception:
+            if "out" in skeleton:  # traced, but not kept (a callback, an unpicklable output):
+                sources["not kept"] += 1  # run what was traced, in this process only
+                return flat_jit, skeleton["out"]
+            return plain  # tracing failed: filter_jit raises the same error
+        sources["exported"] += 1
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_bytes(blob)
+            os.replace(tmp, path)  # whole or absent, for processes sharing the folder
+        except OSError:
+            pass  # a read-only cache: this process keeps it in memory
+        return jax.jit(exported.call), skeleton["out"]
+
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        if _export_dir() is None:
+            return jitted(*args, **kwargs)
+        dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
+        leaves, treedef = jax.tree.flatten(dynamic)
+        if any(isinstance(x, jax.core.Tracer) for x in leaves):
+            sources["plain"] += 1
+            return jitted(*args, **kwargs)
+        s_leaves, s_def = jax.tree.flatten(static)
+        avals = tuple(
+            (np.shape(x), np.dtype(x.dtype), bool(getattr(x, "weak_type", False))) for x in leaves
+        )
+        try:
+            memo = (treedef, s_def, tuple(s_leaves), avals, _export_dir())
+            entry = programs.get(memo)
+        except TypeError:  # an unhashable static argument: filter_jit says so
+            sources["plain"] += 1
+            return jitted(*args, **kwargs)
+        if entry is None:
+            entry = programs[memo] = export(args, kwargs, dynamic, static, leaves)
+        if entry is plain:
+            sources["plain"] += 1
+            return jitted(*args, **kwargs)
+        run, skeleton = entry
+        # on one device, committed: JAX would compile the program again for a call whose
+        # arguments differ from the last call's only in being committed (outputs of programs)
+        out = run(*jax.device_put(leaves, jax.devices()[0]))
+        return jax.tree.map(lambda s: out[s.index] if isinstance(s, _Slot) else s, skeleton)
+
+    call.sources = sources
+    return call

@@ -62,7 +62,14 @@ from ._checks import (
 from ._fusion import one_computation, sum_together
 from .assembly import Assembly
 from .block import Block
-from .compilation import batch_size, bucket_length, is_traced, notice_once, pad_to
+from .compilation import (
+    batch_size,
+    bucket_length,
+    is_traced,
+    notice_once,
+    pad_to,
+    persistent_jit,
+)
 from .constants import G
 from .contact import (
     Joint,
@@ -335,7 +342,13 @@ def _steps(params: DemParams, accuracy):
     return 2.0 / w, jnp.minimum(accuracy / (w * (1.0 + zeta)), DT_SAFETY * 2.0 / w)
 
 
-_steps_jit = jax.jit(_steps)
+_steps_program = persistent_jit(_steps)
+
+
+def _steps_jit(params: DemParams, accuracy):
+    """:func:`_steps` compiled once for every block and accuracy, and kept on disk with the
+    persistent cache (:func:`rockjax.compilation.persistent_jit`)."""
+    return _steps_program(params, np.float64(accuracy))
 
 
 def stable_dt(
@@ -370,7 +383,7 @@ def stable_dt(
     """
     params = dem_params(block, beta, mode=mode, gap=gap, joint=joint)
     accuracy = _check_accuracy(accuracy, mode, joint)
-    return float(default_step(params, accuracy))
+    return float(_steps_jit(params, accuracy)[1])
 
 
 def _check_accuracy(accuracy, mode, joint):
@@ -904,7 +917,7 @@ def initial_state(params: DemParams, theta0=0.0) -> DemState:
     )
 
 
-@eqx.filter_jit
+@persistent_jit
 def run_prepared(
     params: DemParams,
     state0: DemState,

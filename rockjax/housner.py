@@ -104,7 +104,7 @@ from ._checks import (
 )
 from ._lazy import lazy_module
 from .block import Block
-from .compilation import bucket_length, is_traced, notice_once, pad_to
+from .compilation import bucket_length, is_traced, notice_once, pad_to, persistent_jit
 from .constants import G
 from .motion import GroundMotion
 from .relations import e_housner, e_isr
@@ -1560,7 +1560,7 @@ def _loop_kind(adjoint) -> tuple[str, int | None]:
     )
 
 
-@eqx.filter_jit
+@persistent_jit
 def _simulate(
     block,
     ag,

@@ -49,7 +49,7 @@ from ._fusion import one_computation, sum_together
 from .assembly import Assembly
 from .block import Block
 from .building import ShearBuilding
-from .compilation import is_batched
+from .compilation import is_batched, persistent_jit
 from .constants import G
 from .contact import (
     Joint,
@@ -390,7 +390,13 @@ def _steps(p: AssemblyParams, accuracy):
     return 2.0 / w, jnp.minimum(accuracy / (w * (1.0 + zeta)), DT_SAFETY * 2.0 / w)
 
 
-_steps_jit = jax.jit(_steps)
+_steps_program = persistent_jit(_steps)
+
+
+def _steps_jit(p, accuracy):
+    """:func:`_steps` compiled once for every assembly of a shape and every accuracy (kept on
+    disk with the persistent cache)."""
+    return _steps_program(p, np.float64(accuracy))
 
 
 def stable_dt_assembly(
@@ -1252,7 +1258,7 @@ def _hinge_pose(assembly: Assembly, p: AssemblyParams, s0, joint: Joint) -> Asse
 # ----------------------------------------------------------------------------- driver
 
 
-@eqx.filter_jit
+@persistent_jit
 def _run(
     p: AssemblyParams,
     st0: AssemblyState,

@@ -2,7 +2,10 @@
 
 References: the definitions themselves (a bucket is the least ``minimum * growth^k >= n``,
 checked by enumeration), JAX's own configuration for the cache, and, for the cache across
-processes, a second process that finds the first one's programs on disk (slow test).
+processes, a second process that finds the first one's programs on disk (slow test). Kept
+programs (``persistent_jit``): a new wrapper, as in a new process, loads what the first one
+exported (its result equal to the bit, and to Eq. 2 written here), each static value keys its
+own program, and what cannot be kept is still run correctly.
 """
 
 import logging
@@ -162,8 +165,110 @@ def test_a_second_process_loads_the_solver_from_the_cache(tmp_path):
         return int(out.stdout.split()[-1])
 
     assert cache_hits(4.0) == 0
-    assert any(path.name.startswith("jit__simulate") for path in (tmp_path / "cache").iterdir())
+    # the program is kept traced (exported) and its compiled form is in JAX's cache
+    assert len(list((tmp_path / "cache" / compilation.EXPORT_SUBDIR).glob("_simulate-*"))) == 1
+    assert any(path.name.startswith("jit_call") for path in (tmp_path / "cache").iterdir())
     assert cache_hits(6.0) >= 1
+
+
+# ----------------------------------------------------------------------------- kept programs
+
+
+@pytest.fixture
+def kept(tmp_path):
+    """The persistent cache in a fresh folder, and its kept programs' folder; JAX's cache
+    settings restored afterwards (which also stops keeping programs)."""
+    before = jax.config.jax_compilation_cache_dir
+    before_min = jax.config.jax_persistent_cache_min_compile_time_secs
+    path = compilation.enable_cache(tmp_path / "cache")
+    yield path / compilation.EXPORT_SUBDIR
+    jax.config.update("jax_compilation_cache_dir", before)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", before_min)
+
+
+def _e_h(eta):
+    """Eq. (2), written here: 1 - 1.5 sin^2(eta)."""
+    return 1.0 - 1.5 * np.sin(eta) ** 2
+
+
+def test_a_kept_program_is_loaded_instead_of_traced(kept):
+    eta = jnp.asarray(0.2)
+    first = compilation.persistent_jit(rj.relations.e_housner)
+    want = first(eta)
+    assert dict(first.sources) == {"exported": 1}
+    assert len(list(kept.glob("e_housner-*.jaxexp"))) == 1
+    first(eta)  # the same program, from memory
+    assert dict(first.sources) == {"exported": 1}
+    # a new wrapper has nothing in memory, as in a new process: it loads the kept program
+    second = compilation.persistent_jit(rj.relations.e_housner)
+    got = second(eta)
+    assert dict(second.sources) == {"loaded": 1}
+    assert float(got) == float(want)
+    np.testing.assert_allclose(float(got), _e_h(0.2), rtol=1e-15)
+
+
+def test_kept_programs_are_keyed_by_static_values(kept):
+    # a Block of Python floats is static under filter_jit: each value is its own program
+    f = compilation.persistent_jit(rj.relations.e_housner)
+    a, b = rj.Block(b=0.25, h=1.5), rj.Block(b=0.3, h=1.5)
+    got = [float(f(a)), float(f(b)), float(f(a))]
+    assert dict(f.sources) == {"exported": 2}
+    assert len(list(kept.glob("e_housner-*.jaxexp"))) == 2
+    e_a, e_b = _e_h(np.arctan(0.25 / 1.5)), _e_h(np.arctan(0.3 / 1.5))
+    np.testing.assert_allclose(got, [e_a, e_b, e_a], rtol=1e-14)
+    again = compilation.persistent_jit(rj.relations.e_housner)
+    assert float(again(b)) == got[1] and dict(again.sources) == {"loaded": 1}
+
+
+def test_traced_calls_and_functions_from_elsewhere_are_not_kept(kept):
+    f = compilation.persistent_jit(rj.relations.e_housner)
+    slope = jax.grad(f)(0.2)  # a tracer inside grad: filter_jit's
+    np.testing.assert_allclose(float(slope), -3.0 * np.sin(0.2) * np.cos(0.2), rtol=1e-14)
+    assert dict(f.sources) == {"plain": 1}
+
+    def twice(x):  # not rockjax's: its source is not in the key
+        return 2.0 * x
+
+    g = compilation.persistent_jit(twice)
+    assert float(g(jnp.asarray(1.5))) == 3.0 and dict(g.sources) == {"plain": 1}
+    # rockjax's function with a function from elsewhere as an argument
+    h = compilation.persistent_jit(rj.relations.e_housner)
+    with pytest.raises(TypeError):
+        h(twice)  # filter_jit's own error for a function where an angle belongs
+    assert dict(h.sources) == {"plain": 1}
+    assert not kept.exists() or not list(kept.iterdir())
+
+
+def test_a_program_with_a_callback_runs_but_is_not_kept(kept):
+    # free_rocking_period checks theta0 < eta with eqx.error_if: a Python callback
+    f = compilation.persistent_jit(rj.relations.free_rocking_period)
+    args = (jnp.asarray(2.0), jnp.asarray(0.2), jnp.asarray(0.1))
+    got = [float(f(*args)), float(f(*args))]
+    assert dict(f.sources) == {"not kept": 1}  # traced once, then run from memory
+    assert got[0] == got[1] == pytest.approx(4.0 / 2.0 * np.arccosh(1.0 / (1.0 - 0.5)), rel=1e-14)
+    assert not kept.exists() or not list(kept.iterdir())
+    with pytest.raises(Exception, match="theta0"):  # eqx.error_if's runtime error
+        f(jnp.asarray(2.0), jnp.asarray(0.2), jnp.asarray(0.3)).block_until_ready()
+
+
+def test_a_damaged_kept_program_is_exported_again(kept):
+    eta = jnp.asarray(0.3)
+    compilation.persistent_jit(rj.relations.e_housner)(eta)
+    (path,) = kept.glob("e_housner-*.jaxexp")
+    path.write_bytes(b"not a program")
+    f = compilation.persistent_jit(rj.relations.e_housner)
+    np.testing.assert_allclose(float(f(eta)), _e_h(0.3), rtol=1e-15)
+    assert dict(f.sources) == {"exported": 1}
+    assert path.read_bytes() != b"not a program"
+
+
+def test_without_the_cache_a_persistent_jit_is_filter_jit():
+    assert compilation.cache_dir() is None or jax.config.jax_compilation_cache_dir != str(
+        compilation.cache_dir()
+    )
+    f = compilation.persistent_jit(rj.relations.e_housner)
+    np.testing.assert_allclose(float(f(jnp.asarray(0.2))), _e_h(0.2), rtol=1e-15)
+    assert dict(f.sources) == {}
 
 
 # ----------------------------------------------------------------------------- the DEM
@@ -366,7 +471,8 @@ def test_a_second_process_loads_the_dem_from_the_cache(tmp_path):
         return int(out.stdout.split()[-1])
 
     assert cache_hits(4.0) == 0
-    assert any(path.name.startswith("jit_run_prepared") for path in (tmp_path / "cache").iterdir())
+    exported = tmp_path / "cache" / compilation.EXPORT_SUBDIR
+    assert len(list(exported.glob("run_prepared-*"))) == 1
     assert cache_hits(6.0) >= 1
 
 

@@ -8,6 +8,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from ..compilation import stable_name
 from .problems import CalibrationProblem, stats
 
 
@@ -55,6 +56,11 @@ def _loss_u_bwd(dval, g, perturbed, u, problem):
     return g * dval
 
 
+stable_name(
+    loss_u, "rockjax.calibration.derivatives.loss_u"
+)  # a static argument of the L-BFGS step
+
+
 def forward_mode(loss):
     """``loss(u, problem)`` whose reverse-mode gradient in ``u`` is computed in forward mode:
     one tangent per parameter (``jax.jacfwd``, primal and tangents in one pass), cheaper than
@@ -80,4 +86,4 @@ def forward_mode(loss):
     def _bwd(jac, g, perturbed, u, problem):
         return g * jac
 
-    return wrapped
+    return stable_name(wrapped, f"forward_mode({loss.__module__}.{loss.__qualname__})")

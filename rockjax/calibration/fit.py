@@ -16,7 +16,7 @@ import numpy as np
 from .. import _progress, metrics
 from .._checks import check_choice, check_nonnegative, check_scalar
 from ..block import Block
-from ..compilation import notice_once
+from ..compilation import notice_once, persistent_jit
 from ..contact import Joint
 from ..dem import simulate_dem
 from ..housner import simulate_housner
@@ -276,7 +276,7 @@ def _final_runs(problem: CalibrationProblem, beta: float, h_resps: list[Response
     return dem, tuple(float(x) for x in st), None if h_err is None else float(h_err)
 
 
-@eqx.filter_jit
+@persistent_jit
 def _final_program(problem: CalibrationProblem, beta, h_theta, t_last):
     dem = dem_run(problem, beta)
     h_err = None
@@ -385,7 +385,7 @@ def e_effective(
     }
 
 
-@eqx.filter_jit
+@persistent_jit
 def _e_batch(problem: CalibrationProblem, betas):
     def one(beta):
         pk, status = dem_peaks(problem, beta)
@@ -408,7 +408,7 @@ def _history_params(u, problem):
     return history_params(problem, u)
 
 
-@eqx.filter_jit
+@persistent_jit
 def _dem_peaks_jit(problem: CalibrationProblem, beta):
     return dem_peaks(problem, beta)
 

@@ -22,6 +22,7 @@ import numpy as np
 from .. import metrics
 from .._checks import check_choice, check_positive, check_scalar
 from ..block import Block
+from ..compilation import persistent_jit
 from ..contact import Joint
 from ..dem import simulate_dem, stable_dt
 from ..housner import simulate_housner
@@ -132,7 +133,7 @@ def stats(problem: CalibrationProblem, beta):
     return _stats(problem, jnp.asarray(beta, float))
 
 
-@eqx.filter_jit
+@persistent_jit
 def _stats(problem: CalibrationProblem, beta):
     pk, status = dem_peaks(problem, beta)
     if problem.kind == "e":
@@ -149,7 +150,7 @@ def _stats(problem: CalibrationProblem, beta):
     return tuple(jnp.where(bad, jnp.nan, x) for x in (loss, gap, own, shape))
 
 
-@eqx.filter_jit
+@persistent_jit
 def stats_batch(problem: CalibrationProblem, betas):
     """:func:`stats` at each of ``betas`` [s] (one compiled, vmapped batch)."""
     return jax.vmap(lambda b: stats(problem, b))(betas)
@@ -294,7 +295,7 @@ def housner_peaks(block, e, theta0, mode, n_bounces, duration):
     return _stacked_peaks(ts, thetas, block.eta, n_bounces, mode, hysteresis(mode)), resps
 
 
-@eqx.filter_jit
+@persistent_jit
 def _stacked_peaks(ts, thetas, eta, n_bounces, mode, hyst):
     # One compiled program (eager, the peak finder would compile each of its small operations
     # in every new process); the same numbers as eager, bit for bit.

@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import functools
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .._lazy import lazy_module
+from ..compilation import persistent_jit
 from .problems import CalibrationProblem, stats_batch
 
 optax = lazy_module("optax")  # loaded on first use (rockjax/_lazy.py): a fit needs it
@@ -31,13 +31,13 @@ def _optimizer():
     )
 
 
-@eqx.filter_jit
+@persistent_jit
 def _init(u):
     # strong types, as _step returns them (a weakly typed count would trace _step again)
     return jax.tree.map(lambda x: jnp.asarray(x, x.dtype), _optimizer().init(u))
 
 
-@eqx.filter_jit
+@persistent_jit
 def _step(loss, params_of, u, state, problem):
     # One compiled program per iteration (the derivative, the line search and the update),
     # which the persistent cache keeps; the parameters are computed here too, so that the
