@@ -319,6 +319,7 @@ def _environment() -> str:
         f"backend={jax.default_backend()}",
         f"promotion={jax.config.jax_numpy_dtype_promotion}",
         f"matmul={jax.config.jax_default_matmul_precision}",
+        f"rank={jax.config.jax_numpy_rank_promotion}",
         f"EQX_ON_ERROR={os.environ.get('EQX_ON_ERROR', '')}",
     ]
     return digest.hexdigest() + ";" + ";".join(versions + config)
@@ -351,7 +352,9 @@ def persistent_jit(fn):
     A call inside ``jit``, ``vmap`` or ``grad``, or with a function or class from elsewhere as
     an argument, is ``filter_jit``'s. A program that cannot be exported (one that calls back
     into Python, as ``eqx.error_if`` does) runs as traced, in this process only. A damaged or
-    unreadable kept program is exported again. ``wrapped.sources`` counts how each program was
+    unreadable kept program is exported again. The kept programs are Python pickles, loaded
+    as code is: keep the cache folder writable by you alone (the default, under your home
+    folder, is). ``wrapped.sources`` counts how each program was
     obtained (``"exported"``, ``"loaded"``, ``"not kept"``; ``"plain"``: calls, with the
     cache on, passed to ``filter_jit``).
     """
