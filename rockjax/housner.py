@@ -161,17 +161,42 @@ _N_NEWTON = 3  # from within 1/128, three Newton steps reach ~1e-8 of the step e
 _TINY = 1e-30  # guards divisions in masked branches so their (unused) gradients stay finite
 
 
+# Tsitouras' 5(4) pair (Tsit5; Ch. Tsitouras, Comput. Math. Appl. 62 (2011) 770-775, Table 1),
+# the numbers diffrax's Tsit5 tableau holds (tests/test_housner.py checks them bit for bit;
+# written here so that tracing the solver does not import diffrax, about 0.5 s). Tsit5 is
+# "ssal": stages 1-6 give y1, its 7th stage only serves FSAL and the error estimate.
+_TSIT5_C = (0.0, 0.161, 0.327, 0.9, 0.9800255409045097, 1.0)
+_TSIT5_A = (
+    (0.161,),
+    (-0.008480655492356989, 0.335480655492357),
+    (2.8971530571054935, -6.359448489975075, 4.3622954328695815),
+    (5.325864828439257, -11.748883564062828, 7.4955393428898365, -0.09249506636175525),
+    (
+        5.86145544294642,
+        -12.92096931784711,
+        8.159367898576159,
+        -0.071584973281401,
+        -0.028269050394068383,
+    ),
+)
+_TSIT5_B = (
+    0.09646076681806523,
+    0.01,
+    0.4798896504144996,
+    1.379008574103742,
+    -3.290069515436081,
+    2.324710524099774,
+)
+
+
 @functools.cache
-def _tsit5():
-    """``(A, C, B)`` of diffrax's Tsit5 tableau. Tsit5 (5th order) is "ssal": stages 1-6 give
-    y1, its 7th stage only serves FSAL and the error estimate. ``A[i]`` weighs the slopes of
-    stages 0..i-1 for stage i, ``C[i]`` is its time, ``B`` gives y1."""
-    tableau = diffrax.Tsit5.tableau
-    c = np.concatenate([[0.0], tableau.c[:-1]])
+def tsit5_tableau():
+    """``(A, C, B)`` of the Tsit5 tableau: ``A[i]`` weighs the slopes of stages 0..i-1 for
+    stage i, ``C[i]`` is its time, ``B`` gives y1."""
     a = np.zeros((6, 6))
-    for i, row in enumerate(tableau.a_lower[:-1]):
-        a[i + 1, : row.size] = row
-    return a, c, np.asarray(tableau.b_sol[:-1], dtype=float)
+    for i, row in enumerate(_TSIT5_A):
+        a[i + 1, : len(row)] = row
+    return a, np.asarray(_TSIT5_C), np.asarray(_TSIT5_B)
 
 
 # Taylor coefficients of sin(x)/x and cos(x) in x^2; see _sincos.
@@ -538,7 +563,7 @@ def _rk_step(accel, t0, h, theta0, theta_dot0):
     """One explicit Runge-Kutta step (diffrax's Tsit5 tableau, unrolled) of
     ``(theta, theta_dot)' = (theta_dot, accel(t, theta))`` from ``t0`` over ``h`` [s]."""
     k_th, k_thd = [], []  # stage slopes of theta (the stage theta_dot) and of theta_dot
-    tab_a, tab_c, tab_b = _tsit5()
+    tab_a, tab_c, tab_b = tsit5_tableau()
     for a_i, c_i in zip(tab_a, tab_c):
         theta = theta0 + h * sum(float(a) * k for a, k in zip(a_i, k_th))
         theta_dot = theta_dot0 + h * sum(float(a) * k for a, k in zip(a_i, k_thd))

@@ -110,6 +110,21 @@ def _free_rocking_reference(block, theta0, e, n):
 # ----------------------------------------------------------------------------- free rocking
 
 
+def test_tsit5_tableau_is_diffrax_s_bit_for_bit():
+    """The solver's Tsit5 coefficients are written out (tracing then needs no diffrax); they
+    must be diffrax's (Tsitouras 2011), to the last bit. The fifth-order convergence test below
+    checks what they do."""
+    a, c, b = rj.housner.tsit5_tableau()
+    tab = diffrax.Tsit5.tableau  # stage 7 (FSAL, error estimate) is not used: stages 0-5
+    np.testing.assert_array_equal(c, np.concatenate([[0.0], tab.c[:-1]]))
+    for i, row in enumerate(tab.a_lower[:-1]):
+        np.testing.assert_array_equal(a[i + 1, : row.size], row)
+        np.testing.assert_array_equal(a[i + 1, row.size :], 0.0)
+    np.testing.assert_array_equal(a[0], 0.0)
+    np.testing.assert_array_equal(b, tab.b_sol[:-1])
+    assert tab.b_sol[-1] == 0.0
+
+
 def test_free_rocking_peaks_decay_by_e_squared_in_v(block):
     e = _e_h()
     resp = rj.simulate_housner(block, theta0=0.5 * ETA, duration=8.0, dt=1e-3)
