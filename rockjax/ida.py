@@ -51,7 +51,6 @@ import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -64,6 +63,7 @@ from ._types import ScalarLike
 from .assembly import Assembly
 from .block import Block
 from .building import ShearBuilding, wall_top_motion
+from .compilation import persistent_jit
 from .constants import G
 from .contact import Joint
 from .dem import simulate_dem, stable_dt
@@ -816,7 +816,7 @@ def _group_records(records, tail: float, t_end: float | None = None):
     return groups, pga, float(t_end)
 
 
-@eqx.filter_jit
+@persistent_jit
 def _wall_histories(building, ag, dt: float, height):
     """``(u_top, v_top)`` of the return wall at ``height`` for every record of a group at scale
     1, shape (record, time) (:func:`rockjax.wall_top_motion`)."""
@@ -827,7 +827,7 @@ def _wall_histories(building, ag, dt: float, height):
     return jax.vmap(one)(ag)
 
 
-@eqx.filter_jit
+@persistent_jit
 def _support_histories(building, ag, dt: float, storey: int, restrained: bool, wall_height=None):
     """The supports of a wall in storey ``storey`` for every record of a group at scale 1,
     each (record, time): the base floor's absolute acceleration [m/s^2] and, for a restrained
@@ -846,7 +846,7 @@ def _support_histories(building, ag, dt: float, storey: int, restrained: bool, w
     return jax.vmap(one)(ag)
 
 
-@eqx.filter_jit
+@persistent_jit
 def _run_chunk(
     block,
     ag,

@@ -80,6 +80,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._checks import check_number, concrete
+from .compilation import persistent_jit
 from .constants import G
 from .motion import GroundMotion
 
@@ -390,7 +391,7 @@ def _coefficients(omega, zeta, h):
     return (p00, p01, p10, p11), g0, g1
 
 
-@eqx.filter_jit
+@persistent_jit
 def _peaks(ag, n_valid, periods, zeta, angles, dt, *, n_sub: int):
     """Peak ``|u|`` of each component ``ag[c]`` (shape ``(component, period)``), or with
     ``angles`` of ``u_0 cos psi + u_1 sin psi`` (shape ``(angle, period)``), over the first
