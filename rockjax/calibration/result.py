@@ -41,7 +41,7 @@ log-amplitude gap and the peak-time gap over the first bounce's peak time
 (:func:`history_peak_gap`). Set from the twin experiment
 (``python experiments/fit_two_parameters.py``, docs/calibration.md "Several parameters at
 once"): its 1e-4 rad of noise alone gives 0.013 at the true parameters; points of the loss's
-valley 2-6 % away in ``b`` give 0.06-0.12."""
+valley 2-7 % away in ``b`` give 0.06-0.12."""
 
 
 @dataclasses.dataclass(frozen=True)
