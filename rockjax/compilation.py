@@ -430,13 +430,14 @@ def persistent_jit(fn):
             sources["plain"] += 1
             return jitted(*args, **kwargs)
         s_leaves, s_def = jax.tree.flatten(static)
-        avals = tuple(
-            (np.shape(x), np.dtype(x.dtype), bool(getattr(x, "weak_type", False))) for x in leaves
-        )
         try:
+            avals = tuple(
+                (np.shape(x), np.dtype(x.dtype), bool(getattr(x, "weak_type", False)))
+                for x in leaves
+            )
             memo = (treedef, s_def, tuple(s_leaves), avals, _export_dir())
             entry = programs.get(memo)
-        except TypeError:  # an unhashable static argument: filter_jit says so
+        except TypeError:  # an unhashable static argument (filter_jit says so), a key array
             sources["plain"] += 1
             return jitted(*args, **kwargs)
         if entry is None:
