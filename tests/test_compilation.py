@@ -239,6 +239,14 @@ def test_traced_calls_and_functions_from_elsewhere_are_not_kept(kept):
     assert not kept.exists() or not list(kept.iterdir())
 
 
+def test_a_key_array_argument_goes_to_filter_jit(kept):
+    # NumPy cannot name a key array's dtype: such a call is filter_jit's, not an error
+    f = compilation.persistent_jit(jax.random.uniform)
+    want = jax.random.uniform(jax.random.key(0))
+    assert float(f(jax.random.key(0))) == float(want)
+    assert dict(f.sources) == {"plain": 1}
+
+
 def test_a_program_with_a_callback_runs_but_is_not_kept(kept):
     # free_rocking_period checks theta0 < eta with eqx.error_if: a Python callback
     f = compilation.persistent_jit(rj.relations.free_rocking_period)
