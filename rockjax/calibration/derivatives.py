@@ -56,9 +56,8 @@ def _loss_u_bwd(dval, g, perturbed, u, problem):
     return g * dval
 
 
-stable_name(
-    loss_u, "rockjax.calibration.derivatives.loss_u"
-)  # a static argument of the L-BFGS step
+# a static argument of the L-BFGS step: named, so that its program can be kept on disk
+stable_name(loss_u, "rockjax.calibration.derivatives.loss_u")
 
 
 def forward_mode(loss):
