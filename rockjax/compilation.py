@@ -18,8 +18,8 @@ under ``grad``). rockjax avoids this, and says when it compiles:
   caller's ``jit`` with ``throw=True`` the check stays in the program, which is then not cached.
 * **Kept programs.** With the cache on, the solvers' programs (:func:`persistent_jit`) are
   also kept traced and lowered (``jax.export``) in its ``exported`` folder, so a new process
-  neither traces nor lowers them: the first ``fit_beta`` of a process takes about 2.5 s
-  instead of 6-7 s.
+  neither traces nor lowers them: the first ``fit_beta`` of a process takes about 2 s instead
+  of about 6 s (docs/benchmarks.md, "Kept programs").
 * **Notices.** The first call that compiles a solver says so in one line ("compiling the Housner
   solver for records of <= 32768 samples (once per session)..."), through the ``rockjax``
   logger when logging is configured, else on stderr. Silence them with
@@ -226,7 +226,7 @@ _LIBRARIES = (
     "builtins",
 )
 """Code whose content the key of a kept program covers: rockjax by the hash of its source,
-the others by their versions. A static argument of any other code (a user's function or
+the others (and the interpreter) by their versions. A static argument of any other code (a user's function or
 class) is not keyed, so such a call is traced as usual."""
 
 _NAMES: dict[int, tuple[object, str]] = {}
@@ -308,8 +308,10 @@ def _environment() -> str:
     for path in sorted(Path(__file__).parent.rglob("*.py")):
         digest.update(path.relative_to(Path(__file__).parent).as_posix().encode())
         digest.update(path.read_bytes())
-    versions = []
-    for dist in ("jax", "jaxlib", "equinox", "diffrax", "optax", "lineax", "optimistix", "numpy"):
+    versions = [f"python={sys.version}"]  # builtins
+    for dist in _LIBRARIES:
+        if dist in ("rockjax", "builtins"):  # the source hash above; the interpreter's version
+            continue
         try:
             versions.append(f"{dist}={importlib.metadata.version(dist)}")
         except importlib.metadata.PackageNotFoundError:
@@ -366,7 +368,7 @@ def persistent_jit(fn):
     plain = object()
     sources: collections.Counter = collections.Counter()
 
-    def export(args, kwargs, dynamic, static, leaves):
+    def export(args, kwargs, dynamic, static, avals):
         folder = _export_dir()
         if not keyed:
             return plain
@@ -395,12 +397,7 @@ def persistent_jit(fn):
             skeleton["out"] = eqx.combine(jax.tree.unflatten(out_def, slots), out_static)
             return out_leaves
 
-        specs = [
-            jax.ShapeDtypeStruct(
-                np.shape(x), np.dtype(x.dtype), weak_type=getattr(x, "weak_type", False)
-            )
-            for x in leaves
-        ]
+        specs = [jax.ShapeDtypeStruct(*shape_dtype, weak_type=weak) for *shape_dtype, weak in avals]
         flat_jit = jax.jit(flat)
         try:
             exported = jax.export.export(flat_jit)(*specs)
@@ -426,7 +423,7 @@ def persistent_jit(fn):
             return jitted(*args, **kwargs)
         dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
         leaves, treedef = jax.tree.flatten(dynamic)
-        if any(isinstance(x, jax.core.Tracer) for x in leaves):
+        if is_traced(leaves):
             sources["plain"] += 1
             return jitted(*args, **kwargs)
         s_leaves, s_def = jax.tree.flatten(static)
@@ -441,7 +438,7 @@ def persistent_jit(fn):
             sources["plain"] += 1
             return jitted(*args, **kwargs)
         if entry is None:
-            entry = programs[memo] = export(args, kwargs, dynamic, static, leaves)
+            entry = programs[memo] = export(args, kwargs, dynamic, static, avals)
         if entry is plain:
             sources["plain"] += 1
             return jitted(*args, **kwargs)

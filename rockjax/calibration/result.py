@@ -239,8 +239,11 @@ def history_peak_gap(
         t_scale: Time scale [s]: the loss's, the first bounce's peak time.
         mode: ``"two_sided"`` or ``"one_sided"``.
     """
-    t_m, a_m = bounce_peaks(measured, mode)
-    t_f, a_f = bounce_peaks(fitted, mode)
+    return _peak_gap(bounce_peaks(fitted, mode), bounce_peaks(measured, mode), n_compared, t_scale)
+
+
+def _peak_gap(fitted, measured, n_compared: int, t_scale: float) -> float:
+    (t_f, a_f), (t_m, a_m) = fitted, measured
     if min(t_m.size, t_f.size) < n_compared:
         return math.inf
     k = slice(0, n_compared)
@@ -256,7 +259,8 @@ def history_missed(
 
     Args: as :func:`history_peak_gap`.
     """
-    n_m, n_f = (bounce_peaks(r, mode)[0].size for r in (measured, fitted))
+    peaks_f, peaks_m = bounce_peaks(fitted, mode), bounce_peaks(measured, mode)
+    n_m, n_f = peaks_m[0].size, peaks_f[0].size
     if n_m < n_compared:
         return [
             f"the NumPy peak finder finds {n_m} of the {n_compared} compared bounces in the "
@@ -267,7 +271,7 @@ def history_missed(
             f"the fitted DEM shows {n_f} of the {n_compared} compared bounces within the "
             "measured record"
         ]
-    rms = history_peak_gap(fitted, measured, n_compared, t_scale, mode)
+    rms = _peak_gap(peaks_f, peaks_m, n_compared, t_scale)
     if not rms <= HISTORY_TOL:
         return [
             f"the fitted DEM misses the measured bounce peaks by an RMS of {rms:.3g} (log "
