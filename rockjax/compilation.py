@@ -66,7 +66,8 @@ CACHE_MIN_COMPILE_S = 0.0
 """Programs that took less than this to compile [s] are not written to the persistent cache
 (JAX's default is 1 s). Every program is written: the small eager operations of a set-up (a
 block's derived quantities, the checks) take 30-40 ms each to compile, and in the first
-``fit_beta`` of a process they added up to about 1 s (docs/benchmarks.md, "Compilation")."""
+``fit_beta`` of a process they added up to about 1 s (scratch runs; docs/benchmarks.md,
+"Kept programs")."""
 
 _OFF = ("", "0", "off", "no", "false", "none")
 _LOG = logging.getLogger("rockjax")
