@@ -50,7 +50,8 @@ silently rested. Per-record branches are selects, so batches of records, blocks 
 restitution coefficients vectorise (each record of a batch at its own step), and
 ``grad``/``jvp`` go through the root-finding (the last Newton steps carry the
 implicit-function derivative of the impact times). The Tsit5 step sits in a ``lax.cond`` on
-whether any record of the batch needs it. The discrete state (pivot, flags, impact count, last
+whether any record of the batch needs it; the solver's ``cond``s differentiate as selects of
+both branches (``_cond``), which halves the time to trace ``grad``. The discrete state (pivot, flags, impact count, last
 impact time, running max ``|theta|``) rides along in the loop state; the loop saves the state
 at every sample into buffers written once each.
 
@@ -239,6 +240,42 @@ def _floordiv(k, n: int):
 def _mod(k, n: int):
     """``k % n`` for ``k >= 0`` (an int array) and a static ``n >= 1``."""
     return jnp.zeros_like(k) if n == 1 else jax.lax.rem(k, jnp.asarray(n, k.dtype))
+
+
+def _cond(pred, on_true, on_false):
+    """``lax.cond(pred, on_true, on_false)`` for branches without arguments, differentiated as
+    a ``select`` of both branches.
+
+    The solver's ``cond``s only skip work (a branch's result where ``pred`` fails is never
+    read), so both forms have the same values and derivatives. Linearising a ``cond`` nested
+    in the checkpointed loop's backward pass made up most of the time to trace ``grad`` of a
+    run; its derivative rule here is straight-line code. The run itself keeps the ``cond``.
+    """
+    branches = (eqx.filter_closure_convert(on_true), eqx.filter_closure_convert(on_false))
+    arrays, static = eqx.partition(branches, eqx.is_array)
+    leaves, treedef = jax.tree.flatten(arrays)
+
+    def rebuild(leaves):
+        return eqx.combine(jax.tree.unflatten(treedef, leaves), static)
+
+    @jax.custom_jvp
+    def run(pred, *leaves):
+        on_true, on_false = rebuild(leaves)
+        return jax.lax.cond(pred, lambda: on_true(), lambda: on_false())
+
+    @run.defjvp
+    def run_jvp(primals, tangents):
+        a, da = jax.jvp(lambda *ls: rebuild(ls)[0](), primals[1:], tangents[1:])
+        b, db = jax.jvp(lambda *ls: rebuild(ls)[1](), primals[1:], tangents[1:])
+
+        def pick(x, y):
+            if jnp.result_type(x) == jax.dtypes.float0:  # (integer outputs: no tangent)
+                return x
+            return _where(primals[0], x, y)
+
+        return jax.tree.map(pick, a, b), jax.tree.map(pick, da, db)
+
+    return run(pred, *leaves)
 
 
 # --------------------------------------------------------------------------- state and forcing
@@ -714,7 +751,7 @@ def _flight(pred, accel, t0, h, theta0, theta_dot0):
     XLA computation: inlined, XLA's CPU fusion copied them into every consumer of the result
     and a step ran three times slower.
     """
-    return jax.lax.cond(
+    return _cond(
         eqxi.unvmap_any(pred),
         lambda: _rk_step(accel, t0, h, theta0, theta_dot0),
         lambda: (theta0, theta_dot0),
@@ -882,7 +919,7 @@ def _pass(
         quiet = ~pending & (at_rest | (y.overturned != 0))
         uplift = (excess_b, from_start, excess_a)
         wall = k
-    return jax.lax.cond(
+    return _cond(
         eqxi.unvmap_all(quiet),
         lambda: (y, t1 + jnp.zeros_like(ta), hit),
         lambda: _active_pass(
@@ -926,7 +963,7 @@ def _active_pass(
         excess_b, from_start, excess_start = uplift
         # inside the step only after an impact (rare): the wall's excess there
         inside = ~from_start & (y.s == 0) & (y.overturned == 0) & ~pending
-        excess_a = jax.lax.cond(
+        excess_a = _cond(
             eqxi.unvmap_any(inside),
             lambda: _where(from_start, excess_start, _wall_excess(ta, step.at(ta), params, line)),
             lambda: excess_start,
@@ -971,7 +1008,7 @@ def _active_pass(
         wall_b, rate_b = wall_t1
         g0, dg0 = theta_a - wall_a, h * (theta_dot_a - rate_a)
         g1, dg1 = theta_f - wall_b, h * (theta_dot_f - rate_b)
-    x_turn, g_turn = jax.lax.cond(
+    x_turn, g_turn = _cond(
         eqxi.unvmap_any(~pending & rocking & (dg0 < 0) & (dg1 > 0) & (g1 >= 0)),
         lambda: _hermite_turn(g0, dg0, g1, dg1),
         lambda: (jnp.ones_like(g1), g1),
@@ -1032,7 +1069,7 @@ def _active_pass(
     # The rule reads the record at up to REST_HORIZON + 2 times (gathers, the costliest part
     # of a pass in a batch): only when some record of the batch impacts.
     rebound = jnp.abs(theta_dot_plus - rate_at) if moving_wall else jnp.abs(theta_dot_plus)
-    rests, hop = jax.lax.cond(
+    rests, hop = _cond(
         eqxi.unvmap_any(pending),
         lambda: _rests(t_impact, rebound, s_plus, line, record, params, one_sided, step),
         lambda: (jnp.zeros_like(pending), jnp.zeros_like(t_impact)),
