@@ -458,6 +458,34 @@ def test_grad_and_jvp_match_finite_differences_for_record_amplitude(block):
     np.testing.assert_allclose(float(tangent), fd, rtol=FD_RTOL)
 
 
+def test_grad_is_zero_at_rest_and_finite_through_impacts_and_overturning(block):
+    # The solver's skipped branches (a quiet pass, a step without a flight, the rest rule
+    # without an impact) take part in the derivative: their values where they are not taken
+    # must not reach it. At rest the peak does not depend on e or the scale at all (exactly
+    # zero); rocking and overturning give finite derivatives (the latter of a frozen state).
+    pulse = rj.GroundMotion.ricker(pga=1.0, period=0.5, duration=6.0, dt=0.01).ag
+    threshold = 9.81 * math.tan(float(block.eta))  # [m/s^2]: the uplift acceleration
+
+    def peak(e, scale, mode):
+        gm = rj.GroundMotion(ag=scale * threshold * pulse, dt=0.01)
+        r = rj.simulate_housner(block, gm, e=e, mode=mode, throw=False)
+        return r.theta_max, r.overturned
+
+    seen = set()
+    for mode, scales in (("two_sided", (0.5, 1.5, 4.0)), ("one_sided", (4.0,))):
+        grad = jax.jit(jax.grad(lambda e, s, mode=mode: peak(e, s, mode)[0], argnums=(0, 1)))
+        for scale in scales:
+            theta_max, over = peak(0.9, scale, mode)
+            g = [float(x) for x in grad(0.9, scale)]
+            assert all(math.isfinite(x) for x in g), (scale, mode, g)
+            if float(theta_max) == 0.0:
+                seen.add("rest")
+                assert g == [0.0, 0.0]
+            else:
+                seen.add("overturned" if bool(over) else "rocking")
+    assert seen == {"rest", "rocking", "overturned"}
+
+
 # ----------------------------------------------------------------------------- errors, status
 
 
