@@ -51,9 +51,9 @@ restitution coefficients vectorise (each record of a batch at its own step), and
 ``grad``/``jvp`` go through the root-finding (the last Newton steps carry the
 implicit-function derivative of the impact times). The Tsit5 step sits in a ``lax.cond`` on
 whether any record of the batch needs it; the solver's ``cond``s differentiate as selects of
-both branches (``_cond``), which halves the time to trace ``grad``. The discrete state (pivot, flags, impact count, last
-impact time, running max ``|theta|``) rides along in the loop state; the loop saves the state
-at every sample into buffers written once each.
+both branches (``_cond``), which halves the time to trace ``grad``. The discrete state (pivot,
+flags, impact count, last impact time, running max ``|theta|``) rides along in the loop state;
+the loop saves the state at every sample into buffers written once each.
 
 Compile once: the record's length and step are data (``n_out``, ``_Record.dt``), so an eager
 call pads the record to a bucket (:func:`rockjax.compilation.bucket_length`, repeating its
@@ -250,6 +250,9 @@ def _cond(pred, on_true, on_false):
     read), so both forms have the same values and derivatives. Linearising a ``cond`` nested
     in the checkpointed loop's backward pass made up most of the time to trace ``grad`` of a
     run; its derivative rule here is straight-line code. The run itself keeps the ``cond``.
+    Under differentiation the branch not taken is evaluated too, on the same inputs, so it
+    must give finite derivatives there (``tests/test_housner.py``: at rest, rocking and
+    overturning).
     """
     branches = (eqx.filter_closure_convert(on_true), eqx.filter_closure_convert(on_false))
     arrays, static = eqx.partition(branches, eqx.is_array)

@@ -529,10 +529,9 @@ def _solve_ldl(diag, lower, rhs):
 
     Each multiplier is a division by its pivot, and XLA:CPU does not copy a division into
     its consumers: each factor is computed once, where the adjugate inverses' shared products
-    were copied into each output. A two-block wall's step: 4013 compiled operations instead
-    of 4615, 269-273 ns instead of 293 ns (docs/assemblies.md, "Performance"). In a batch the
-    divisions are vector operations of their own, and four or more blocks ran slower than by
-    block elimination.
+    were copied into each output (docs/assemblies.md, "Performance"). In a batch the divisions
+    are vector operations of their own, and four or more blocks ran slower than by block
+    elimination.
     """
     n = len(diag)
     size = 3 * n
@@ -678,8 +677,8 @@ def _dashpot_blocks(c, moments, e, arm, kappa, ground: bool):
     lower ``r_l = -(e, a(tau) + kappa)``, ``a`` affine in ``tau`` from ``arm`` (its values at
     the face's two ends), ``moments = int w (1, tau, tau^2)``.
 
-    From ``M0 = int w``, ``M1 = int w a`` and ``M2 = int w a^2`` each entry is one or two
-    products (XLA:CPU copies the shared ones into each entry)."""
+    Each entry is one or two products of ``c M0``, ``c M1``, ``c M2`` (``M0 = int w``,
+    ``M1 = int w a``, ``M2 = int w a^2``) and the components of ``e``."""
     m0, m1, m2 = moments
     a0, da = arm[0], arm[1] - arm[0]
     big1 = _plus(_mul(m0, a0), _mul(m1, da))

@@ -464,7 +464,7 @@ def test_grad_is_zero_at_rest_and_finite_through_impacts_and_overturning(block):
     # must not reach it. At rest the peak does not depend on e or the scale at all (exactly
     # zero); rocking and overturning give finite derivatives (the latter of a frozen state).
     pulse = rj.GroundMotion.ricker(pga=1.0, period=0.5, duration=6.0, dt=0.01).ag
-    threshold = 9.81 * math.tan(float(block.eta))  # [m/s^2]: the uplift acceleration
+    threshold = G * math.tan(float(block.eta))  # [m/s^2]: the uplift acceleration
 
     def peak(e, scale, mode):
         gm = rj.GroundMotion(ag=scale * threshold * pulse, dt=0.01)
