@@ -179,3 +179,26 @@ def insert_cut(cuts, z):
         out.append(jnp.minimum(x, z))
         z = jnp.maximum(x, z)
     return [cuts[0], *out, z, cuts[-1]]
+
+
+def face_integrands(wfn, wf_el, wn, wf, slip, arm_n, arm_s):
+    """What a face law sums over its points, in this order: the normal force ``w f``, its
+    elastic part ``w f_el`` and moment ``w f arm_n``; the normal dashpot's weights ``wn (1,
+    arm_n, arm_n^2)``; the shear dashpot's ``wf (1, arm_s, arm_s^2)``; and the slip's
+    ``wf slip (1, arm_s)``. ``w`` is the point's weight, ``wf`` its weight times the closed
+    fraction, ``wn`` the same where the normal dashpot acts (only where the total force is
+    compressive with a clipped dashpot). The arms are the lever arms (:mod:`rockjax.dem`) or
+    the face coordinate (:mod:`rockjax.multiblock`, whose arms are affine in it)."""
+    return [
+        wfn,
+        wf_el,
+        wfn * arm_n,
+        wn,
+        wn * arm_n,
+        wn * arm_n * arm_n,
+        wf,
+        wf * arm_s,
+        wf * arm_s * arm_s,
+        wf * slip,
+        wf * slip * arm_s,
+    ]

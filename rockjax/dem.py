@@ -75,6 +75,7 @@ from .contact import (
     Joint,
     closed_interval,
     crossing,
+    face_integrands,
     insert_cut,
     normal_force,
     shear_force,
@@ -644,9 +645,8 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
         pts += [(mid + half * xg, half) for xg in _GAUSS_X]
 
     def terms(t, w):
-        # the integrands at points t with weights w (scalars or arrays): f, f_el, f arm_n; the
-        # dashpot weights frac (clipped) times (1, arm_n, arm_n^2) and frac times
-        # (1, arm_s, arm_s^2); frac slip (1, arm_s); and, for a moving wall, f rx
+        # the integrands at points t with weights w (scalars or arrays), face_integrands with
+        # the lever arms, and for a moving wall f rx
         rx, ry, delta, delta_dot, slip = at(t)
         f, f_el, frac = normal_force(delta, delta_dot, kn, beta, params.dashpot, dt_onset)
         # lever arms (moment = ry Fx - rx Fy) of the normal and the shear force
@@ -654,8 +654,7 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
         wfn, wf = w * f, w * frac
         # a clipped dashpot acts only where the total force is compressive
         wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
-        out = [wfn, w * f_el, wfn * arm_n, wn, wn * arm_n, wn * arm_n * arm_n]
-        out += [wf, wf * arm_s, wf * arm_s * arm_s, wf * slip, wf * slip * arm_s]
+        out = face_integrands(wfn, w * f_el, wn, wf, slip, arm_n, arm_s)
         return out + ([wfn * rx] if motion is not None else [])
 
     if params.pointwise_sums:

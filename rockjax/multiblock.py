@@ -55,6 +55,7 @@ from .contact import (
     Joint,
     closed_interval,
     crossing,
+    face_integrands,
     insert_cut,
     normal_force,
     shear_force,
@@ -704,26 +705,11 @@ def _dashpot_blocks(c, moments, e, arm, kappa, ground: bool):
 
 
 def _sum_terms(wfn, wf_el, wn, wf, tau, slip, fs):
-    """The 13 quantities a face sums over its points (weights ``w`` included): ``w f``,
-    ``w f_el``, ``w f tau``, the dashpot weights' moments ``wn (1, tau, tau^2)`` (clipped) and
-    ``wf (1, tau, tau^2)``, ``wf slip (1, tau)`` and the point shear springs ``fs (1, tau)``;
-    Python zeros where a joint has none (the face law's point springs, the sub-contacts'
-    ``f_el``)."""
-    return [
-        wfn,
-        wf_el,
-        _mul(wfn, tau),
-        wn,
-        wn * tau,
-        wn * tau * tau,
-        wf,
-        wf * tau,
-        wf * tau * tau,
-        wf * slip,
-        wf * slip * tau,
-        fs,
-        _mul(fs, tau),
-    ]
+    """The 13 quantities a face sums over its points (weights ``w`` included):
+    :func:`rockjax.contact.face_integrands` in the face coordinate ``tau`` and the point
+    shear springs ``fs (1, tau)``; Python zeros where a joint has none (the face law's point
+    springs, the sub-contacts' ``f_el``)."""
+    return face_integrands(wfn, wf_el, wn, wf, slip, tau, tau) + [fs, _mul(fs, tau)]
 
 
 def _point_sums(p: AssemblyParams, k, pts, lo, width, ends, hist, kn, beta, dt, dt_onset, clipped):
