@@ -75,3 +75,11 @@ def sum_together(*terms):
     """
     shape = jnp.broadcast_shapes(*(jnp.shape(t) for t in terms))
     return _sums(*(jnp.broadcast_to(jnp.asarray(t, float), shape) for t in terms))
+
+
+def computed_once(*values):
+    """``values`` (arrays of one shape) as they are, each computed once whatever reads it:
+    summed with a zero in one reduction (:func:`sum_together`), which XLA:CPU does not copy
+    into its consumers. For a few values that many others are built from (an assembly's
+    dashpot moments, docs/assemblies.md "Performance")."""
+    return sum_together(*(jnp.stack([v, jnp.zeros_like(v)], axis=-1) for v in values))

@@ -45,7 +45,7 @@ from ._checks import (
     concrete,
     is_array_pair,
 )
-from ._fusion import one_computation, sum_together
+from ._fusion import computed_once, one_computation, sum_together
 from .assembly import Assembly
 from .block import Block
 from .building import ShearBuilding
@@ -82,6 +82,11 @@ from .walls import wall_arrays, wall_line, wall_pivot, wall_rise
 SAVE_OPTIONS = ("energy", "forces")
 
 _GAUSS = (-1.0 / math.sqrt(3.0), 1.0 / math.sqrt(3.0))
+
+LDL_BATCH_MAX_BLOCKS = 3
+"""Batches of assemblies of up to this many blocks solve their step as a single history does,
+by :func:`_solve_ldl` with the dashpot moments computed once; larger ones by block elimination,
+which ran faster from four blocks up (docs/assemblies.md, "Performance")."""
 
 
 class AssemblyParams(eqx.Module):
@@ -502,7 +507,8 @@ def _tr(a):
 def _solve_tridiagonal(diag, lower, rhs):
     """Solve the symmetric block-tridiagonal system with diagonal blocks ``diag[k]``,
     ``A[k, k-1] = lower[k]`` (``lower[0]`` unused) and right-hand sides ``rhs[k]`` by block
-    elimination (3 x 3 blocks). Used in batches; a single history uses :func:`_solve_ldl`."""
+    elimination (3 x 3 blocks). Used by batches of more than ``LDL_BATCH_MAX_BLOCKS`` blocks;
+    the others use :func:`_solve_ldl`."""
     n = len(diag)
     dp, gp, inv = [diag[0]], [rhs[0]], [_inv3(diag[0])]
     for k in range(1, n):
@@ -523,16 +529,21 @@ def _solve_tridiagonal(diag, lower, rhs):
     return out
 
 
+def _uses_ldl(p: AssemblyParams) -> bool:
+    """Whether a step solves by :func:`_solve_ldl` (see ``LDL_BATCH_MAX_BLOCKS``)."""
+    return p.single_history or p.n <= LDL_BATCH_MAX_BLOCKS
+
+
 def _solve_ldl(diag, lower, rhs):
-    """:func:`_solve_tridiagonal` for a single history: the system (symmetric positive
-    definite, ``M + dt/2 C``: no pivoting; the lower triangles of ``diag`` are read) as a
-    scalar ``L D L^T`` of its band, then the two triangular solves.
+    """:func:`_solve_tridiagonal`'s system as a single history and small batches solve it
+    (symmetric positive definite, ``M + dt/2 C``: no pivoting; the lower triangles of ``diag``
+    are read): a scalar ``L D L^T`` of its band, then the two triangular solves.
 
     Each multiplier is a division by its pivot, and XLA:CPU does not copy a division into
     its consumers: each factor is computed once, where the adjugate inverses' shared products
     were copied into each output (docs/assemblies.md, "Performance"). In a batch the divisions
-    are vector operations of their own, and four or more blocks ran slower than by block
-    elimination.
+    are vector operations of their own, and from four blocks up the block elimination ran
+    faster.
     """
     n = len(diag)
     size = 3 * n
@@ -672,7 +683,7 @@ def _wall_kinematics(p: AssemblyParams, st: AssemblyState, k: int, motion=None):
     return kin_moving, (0.0, 1.0), (1.0, 0.0), None, (slope, x0_dot, slope_dot, x_pivot, rate)
 
 
-def _dashpot_blocks(c, moments, e, arm, kappa, ground: bool):
+def _dashpot_blocks(c, moments, e, arm, kappa, ground: bool, once: bool):
     """The dashpot blocks ``c int w r r^T`` of one direction of a face: ``(C_uu, C_ll,
     C_ul)`` (the last two None for the ground), for the upper row ``r_u = (e, a(tau))`` and the
     lower ``r_l = -(e, a(tau) + kappa)``, ``a`` affine in ``tau`` from ``arm`` (its values at
@@ -685,6 +696,11 @@ def _dashpot_blocks(c, moments, e, arm, kappa, ground: bool):
     big1 = _plus(_mul(m0, a0), _mul(m1, da))
     big2 = _plus(_mul(_mul(m0, a0), a0), _mul(2.0, _mul(_mul(m1, a0), da)), _mul(_mul(m2, da), da))
     cm0, cm1, cm2 = _mul(c, m0), _mul(c, big1), _mul(c, big2)
+    if once:  # (read by every entry below: XLA:CPU would copy them into each)
+        if ground:
+            cm0, cm1, cm2 = computed_once(cm0, cm1, cm2)
+        else:
+            cm0, cm1, cm2, kappa = computed_once(cm0, cm1, cm2, kappa)
 
     uu = [[_mul(cm0, _mul(e[i], e[j])) for j in range(2)] + [_mul(cm1, e[i])] for i in range(2)]
     uu.append([_mul(cm1, e[0]), _mul(cm1, e[1]), cm2])
@@ -863,8 +879,8 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
         kappa_n = _plus(_mul(y_rel, e2[0]), _mul(-1.0, _mul(x_rel, e2[1])))
         kappa_s = _plus(_mul(y_rel, e1[0]), _mul(-1.0, _mul(x_rel, e1[1])))
     blocks = [
-        _dashpot_blocks(cn, (n0, n1, n2), e2, an_u, kappa_n, ground),
-        _dashpot_blocks(cs, (s0, s1, s2), e1, as_u, kappa_s, ground),
+        _dashpot_blocks(cn, (n0, n1, n2), e2, an_u, kappa_n, ground, _uses_ldl(p)),
+        _dashpot_blocks(cs, (s0, s1, s2), e1, as_u, kappa_s, ground, _uses_ldl(p)),
     ]
     c_uu = _add(blocks[0][0], blocks[1][0])
     fn_out = fn
@@ -1009,7 +1025,7 @@ def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load, top_motio
         )
         lower.append(None if clow[k] is None else _scale(h, clow[k]))
         rhs.append([force[k][0] - mk * ag, force[k][1] - mk * (G + ag_v), _plus(force[k][2])])
-    solve = _solve_ldl if p.single_history else _solve_tridiagonal
+    solve = _solve_ldl if _uses_ldl(p) else _solve_tridiagonal
     acc = one_computation(solve, diag, lower, rhs)
     new = {f: [] for f in ("x", "y", "c", "s", "vx", "vy", "w", "theta", "theta_max")}
     for k in range(n):
