@@ -227,8 +227,8 @@ _LIBRARIES = (
     "builtins",
 )
 """Code whose content the key of a kept program covers: rockjax by the hash of its source,
-the others (and the interpreter) by their versions. A static argument of any other code (a user's function or
-class) is not keyed, so such a call is traced as usual."""
+the others (and the interpreter) by their versions. A static argument of any other code (a
+user's function or class) is not keyed, so such a call is traced as usual."""
 
 _NAMES: dict[int, tuple[object, str]] = {}
 

@@ -162,7 +162,7 @@ _N_NEWTON = 3  # from within 1/128, three Newton steps reach ~1e-8 of the step e
 _TINY = 1e-30  # guards divisions in masked branches so their (unused) gradients stay finite
 
 
-# Tsitouras' 5(4) pair (Tsit5; Ch. Tsitouras, Comput. Math. Appl. 62 (2011) 770-775, Table 1),
+# Tsitouras' 5(4) pair (Tsit5; docs/verification.md, "Tsit5 tableau"),
 # the numbers diffrax's Tsit5 tableau holds (tests/test_housner.py checks them bit for bit;
 # written here so that tracing the solver does not import diffrax, about 0.5 s). Tsit5 is
 # "ssal": stages 1-6 give y1, its 7th stage only serves FSAL and the error estimate.
