@@ -59,7 +59,7 @@ from ._checks import (
     check_scalar,
     concrete,
 )
-from ._fusion import one_computation, sum_together
+from ._fusion import computed_once, one_computation, sum_together
 from .assembly import Assembly
 from .block import Block
 from .compilation import (
@@ -616,6 +616,12 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
 
     # everything is linear in t: the end values define it
     ends = [kin(lo), kin(hi)]
+    if not params.single_history:
+        # read by most of what follows: computed once (in one history the whole contact
+        # computation is one already, see step)
+        flat = computed_once(*(jnp.asarray(v, float) for e in ends for v in e))
+        m = len(ends[0])
+        ends = [tuple(flat[:m]), tuple(flat[m:])]
 
     def at(t):
         w = (t - lo) / (hi - lo)
@@ -639,6 +645,8 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
         # linear in t, changes sign; the pieces either side are then smooth
         q_lo, q_hi = d_lo + beta * ends[0][3], d_hi + beta * ends[1][3]
         cuts = insert_cut(cuts, crossing(lo, hi, q_lo, q_hi))
+    # each cut is read by the positions and weights of the points either side of it
+    cuts = [lo, *computed_once(*cuts[1:-1]), hi]
     pts = []
     for a, b_ in zip(cuts[:-1], cuts[1:]):
         mid, half = 0.5 * (a + b_), 0.5 * (b_ - a)

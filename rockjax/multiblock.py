@@ -762,10 +762,40 @@ def _point_sums(p: AssemblyParams, k, pts, lo, width, ends, hist, kn, beta, dt, 
     return sums, fs_arr
 
 
-def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = False, motion=None):
+def _face_ends(p: AssemblyParams, st: AssemblyState, motion=None):
+    """Each face's kinematics at its two ends, ``[kin(lo), kin(hi)]``: a list for the joints
+    (:func:`_pair_kinematics`) and one for the blocks' back faces on the return walls
+    (:func:`_wall_kinematics`, ``motion`` as there; empty without return walls).
+
+    Most of a step reads them. A history that is not batched computes them all as one XLA
+    computation (:func:`rockjax._fusion.one_computation`): XLA:CPU would copy them into each
+    consumer, and one computation for every face ran faster than one per face
+    (docs/assemblies.md, "Performance")."""
+
+    def compute(_):
+        joints = []
+        for j in range(len(p.links)):
+            kin = _pair_kinematics(p, st, j)[0]
+            joints.append([kin(p.lo[j]), kin(p.hi[j])])
+        walls = []
+        if p.one_sided:
+            for k in range(p.n):
+                kin = _wall_kinematics(p, st, k, motion)[0]
+                walls.append([kin(-0.5 * p.h[k]), kin(0.5 * p.h[k])])
+        return joints, walls
+
+    if p.single_history:
+        return one_computation(compute, st.x[0])
+    return compute(None)
+
+
+def _interface(
+    p: AssemblyParams, st: AssemblyState, k: int, dt, ends, wall: bool = False, motion=None
+):
     """Forces of interface ``k`` (integrated face law or point sub-contacts), or with ``wall``
     of block ``k``'s back face on the return wall (a body moved by ``motion``, see
-    :func:`_wall_kinematics`; None: fixed, as the ground).
+    :func:`_wall_kinematics`; None: fixed, as the ground); ``ends``: the face's kinematics at
+    its ends (:func:`_face_ends`).
 
     Returns ``(F_u, F_l, C_uu, C_ll, C_ul, fs_new, fn, power, ft)``: generalised forces
     ``(Fx, Fy, M)`` on the upper and lower block (``F_l`` None for the ground and the wall),
@@ -776,18 +806,13 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
     velocity."""
     line = None
     if wall:
-        kin, e1, e2, rel, line = _wall_kinematics(p, st, k, motion)
+        _, e1, e2, rel, line = _wall_kinematics(p, st, k, motion)
         lo, hi, hist = -0.5 * p.h[k], 0.5 * p.h[k], st.fs_wall[k]
     else:
-        kin, e1, e2, rel = _pair_kinematics(p, st, k)
+        _, e1, e2, rel = _pair_kinematics(p, st, k)
         lo, hi, hist = p.lo[k], p.hi[k], st.fs[k]
     width = hi - lo
     ground = rel is None
-    if p.single_history:
-        # read by most of what follows: XLA:CPU would copy it into each consumer
-        ends = one_computation(lambda x, a, b_: [kin(a), kin(b_)], st.x[0], lo, hi)
-    else:
-        ends = [kin(lo), kin(hi)]
     dt_onset = dt if p.onset == "sub_step" else None
     clipped = p.dashpot == "clipped"
     beta = p.beta
@@ -813,6 +838,8 @@ def _interface(p: AssemblyParams, st: AssemblyState, k: int, dt, wall: bool = Fa
             cuts = [lo, crossing(lo, hi, d_lo, d_hi), hi]
         if clipped:
             cuts = insert_cut(cuts, crossing(lo, hi, d_lo + beta * r_lo, d_hi + beta * r_hi))
+        # each cut is read by the positions and weights of the points either side of it
+        cuts = [lo, *computed_once(*cuts[1:-1]), hi]
         pts = []
         for a, b_ in zip(cuts[:-1], cuts[1:]):
             mid, half = 0.5 * (a + b_), 0.5 * (b_ - a)
@@ -936,11 +963,13 @@ def _top(p: AssemblyParams, st: AssemblyState, dt, top_motion=None):
             ref - p.gap - qx, -rel_v, p.k_top, p.beta, p.dashpot, dt_onset
         )
         fq = f_l - f_r  # horizontal force on the block at the top face centre
-        fx = fx + fq
-        mom = mom + ry * fq
         wr = frac_r if p.dashpot != "clipped" else jnp.where(f_r > 0, frac_r, 0.0)
         wl = frac_l if p.dashpot != "clipped" else jnp.where(f_l > 0, frac_l, 0.0)
         cq = p.beta * p.k_top * (wr + wl)
+        # each read by several entries of the force and the dashpot matrix
+        fq, cq = computed_once(fq, cq)
+        fx = fx + fq
+        mom = mom + ry * fq
         a = (1.0, 0.0, ry)
         cmat = [[_mul(cq, _mul(a[i], a[j])) for j in range(3)] for i in range(3)]
     return (fx, fy, mom), cmat
@@ -985,8 +1014,9 @@ def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load, top_motio
     cdiag = [[[0.0] * 3 for _ in range(3)] for _ in range(n)]
     clow = [None] * n
     fs_all, fn_all, ft_all = [], [], []
+    joint_ends, wall_ends = _face_ends(p, st, wall)
     for j, (k, other, _) in enumerate(p.links):
-        f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn, _, ft = _interface(p, st, j, dt)
+        f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn, _, ft = _interface(p, st, j, dt, joint_ends[j])
         fs_all.append(fs_new)
         fn_all.append(fn)
         ft_all.append(ft)
@@ -1000,7 +1030,9 @@ def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load, top_motio
     power = 0.0
     if p.one_sided:  # a static choice: walls without return walls run none of this
         for k in range(n):
-            f_w, _, c_w, _, _, fs_new, fn, pw, _ = _interface(p, st, k, dt, wall=True, motion=wall)
+            f_w, _, c_w, _, _, fs_new, fn, pw, _ = _interface(
+                p, st, k, dt, wall_ends[k], wall=True, motion=wall
+            )
             power = power + pw
             fs_wall.append(fs_new)
             fn_wall.append(fn)
