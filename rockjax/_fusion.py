@@ -13,8 +13,10 @@ summed, XLA:CPU evaluated the point law again for every sum).
 Under ``vmap`` a ``cond`` costs time instead (its results are materialised as vectors and the
 batch's predicate reduced every step), so :func:`one_computation` is used in one history
 (``single_history`` of the DEM's parameters, an eager call: its contact forces; of an
-assembly's, any call that is not batched: each face's end kinematics) and for an assembly's
-block elimination; docs/benchmarks.md "One history", docs/assemblies.md "Performance".
+assembly's, any call that is not batched: the end kinematics of its faces) and for an
+assembly's block elimination; docs/benchmarks.md "One history", docs/assemblies.md
+"Performance". :func:`computed_once` (a reduction again) keeps single values whole in batches
+and histories alike.
 """
 
 import equinox as eqx
@@ -80,6 +82,8 @@ def sum_together(*terms):
 def computed_once(*values):
     """``values`` (arrays of one shape) as they are, each computed once whatever reads it:
     summed with a zero in one reduction (:func:`sum_together`), which XLA:CPU does not copy
-    into its consumers. For a few values that many others are built from (an assembly's
-    dashpot moments, docs/assemblies.md "Performance")."""
+    into its consumers. For a few values that many others are built from: a face's cuts and
+    (in a batch) its end kinematics, an assembly's dashpot moments and top restraint
+    (docs/assemblies.md "Performance", docs/benchmarks.md "Values read by many"). Unlike
+    :func:`one_computation` it suits a batch as well as one history."""
     return sum_together(*(jnp.stack([v, jnp.zeros_like(v)], axis=-1) for v in values))
