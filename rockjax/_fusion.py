@@ -83,7 +83,7 @@ def computed_once(*values):
     """``values`` (arrays of one shape) as they are, each computed once whatever reads it:
     summed with a zero in one reduction (:func:`sum_together`), which XLA:CPU does not copy
     into its consumers. For a few values that many others are built from: a face's cuts and
-    (in a batch) its end kinematics, an assembly's dashpot moments and top restraint
+    (in a traced run) its end kinematics, an assembly's dashpot moments and top restraint
     (docs/assemblies.md "Performance", docs/benchmarks.md "Values read by many"). Unlike
     :func:`one_computation` it suits a batch as well as one history."""
     return sum_together(*(jnp.stack([v, jnp.zeros_like(v)], axis=-1) for v in values))
