@@ -324,12 +324,18 @@ def assembly_params(
     )
 
 
+def _span(p: AssemblyParams, k: int, wall: bool = False):
+    """The face coordinates ``(lo, hi)`` [m] of interface ``k``'s face, or with ``wall`` of
+    block ``k``'s back face on the return wall (``t`` up the face from its centre)."""
+    return (-0.5 * p.h[k], 0.5 * p.h[k]) if wall else (p.lo[k], p.hi[k])
+
+
 def _springs(p: AssemblyParams, k: int, wall: bool = False):
     """The springs of interface ``k`` (or of block ``k``'s back face on the return wall) for
     the all-closed stiffness: positions ``t`` along the face [m] and the normal and shear
     stiffnesses [N/m] (the two-point Gauss rule of the face for the integrated law: it gives
     the continuous joint's all-closed stiffness exactly)."""
-    lo, hi = (-0.5 * p.h[k], 0.5 * p.h[k]) if wall else (p.lo[k], p.hi[k])
+    lo, hi = _span(p, k, wall)
     width = hi - lo
     if p.face:
         tau = np.array([0.5 - 0.5 / math.sqrt(3.0), 0.5 + 0.5 / math.sqrt(3.0)])
@@ -772,16 +778,17 @@ def _face_ends(p: AssemblyParams, st: AssemblyState, motion=None):
     consumer, and one computation for every face ran faster than one per face
     (docs/assemblies.md, "Performance")."""
 
+    def ends(kin, span):
+        return [kin(span[0]), kin(span[1])]
+
     def compute(_):
-        joints = []
-        for j in range(len(p.links)):
-            kin = _pair_kinematics(p, st, j)[0]
-            joints.append([kin(p.lo[j]), kin(p.hi[j])])
+        joints = [ends(_pair_kinematics(p, st, j)[0], _span(p, j)) for j in range(len(p.links))]
         walls = []
         if p.one_sided:
-            for k in range(p.n):
-                kin = _wall_kinematics(p, st, k, motion)[0]
-                walls.append([kin(-0.5 * p.h[k]), kin(0.5 * p.h[k])])
+            walls = [
+                ends(_wall_kinematics(p, st, k, motion)[0], _span(p, k, wall=True))
+                for k in range(p.n)
+            ]
         return joints, walls
 
     if p.single_history:
@@ -807,10 +814,11 @@ def _interface(
     line = None
     if wall:
         _, e1, e2, rel, line = _wall_kinematics(p, st, k, motion)
-        lo, hi, hist = -0.5 * p.h[k], 0.5 * p.h[k], st.fs_wall[k]
+        hist = st.fs_wall[k]
     else:
         _, e1, e2, rel = _pair_kinematics(p, st, k)
-        lo, hi, hist = p.lo[k], p.hi[k], st.fs[k]
+        hist = st.fs[k]
+    lo, hi = _span(p, k, wall)
     width = hi - lo
     ground = rel is None
     dt_onset = dt if p.onset == "sub_step" else None
@@ -1094,12 +1102,14 @@ def _step(p: AssemblyParams, st: AssemblyState, ag, ag_v, dt, *, load, top_motio
 # ----------------------------------------------------------------------------- energy, collapse
 
 
-def _face_energy(p: AssemblyParams, k: int, kin, lo, hi, hist):
-    """Spring energy [J] of one face of block ``k`` (``kin`` its kinematics over
-    ``[lo, hi]``, ``hist`` its shear springs): ``kn delta^2 / 2`` integrated exactly over the
-    closed part, and ``f_s^2 / (2 k_s)`` of the shear springs."""
+def _face_energy(p: AssemblyParams, k: int, span, ends, hist):
+    """Spring energy [J] of one face of block ``k`` (``span = (lo, hi)`` its face coordinates,
+    ``ends`` its kinematics there (:func:`_face_ends`), ``hist`` its shear springs):
+    ``kn delta^2 / 2`` integrated exactly over the closed part, and ``f_s^2 / (2 k_s)`` of the
+    shear springs."""
     e = 0.0
-    d_lo, d_hi = kin(lo)[4], kin(hi)[4]
+    lo, hi = span
+    d_lo, d_hi = ends[0][4], ends[1][4]
     if p.face:
         ca, cb = closed_interval(lo, hi, d_lo, d_hi)
         mid, half = 0.5 * (ca + cb), 0.5 * (cb - ca)
@@ -1127,16 +1137,15 @@ def _energy(p: AssemblyParams, st: AssemblyState, vel, wall=None):
     """Kinetic + gravity + overburden + spring energy [J] (springs integrated exactly; the
     return walls' too, moved by ``wall = (u_top, v_top)`` [m, m/s] or fixed)."""
     e = 0.0
+    joint_ends, wall_ends = _face_ends(p, st, wall)
     for i in range(len(p.links)):
-        kin = _pair_kinematics(p, st, i)[0]
-        e = e + _face_energy(p, i, kin, p.lo[i], p.hi[i], st.fs[i])
+        e = e + _face_energy(p, i, _span(p, i), joint_ends[i], st.fs[i])
     for k in range(p.n):
         vx, vy, w = vel[k]
         e = e + 0.5 * p.m[k] * (vx**2 + vy**2) + 0.5 * p.I_c[k] * w**2
         e = e + p.m[k] * G * st.y[k]
         if p.one_sided:
-            kin = _wall_kinematics(p, st, k, wall)[0]
-            e = e + _face_energy(p, k, kin, -0.5 * p.h[k], 0.5 * p.h[k], st.fs_wall[k])
+            e = e + _face_energy(p, k, _span(p, k, wall=True), wall_ends[k], st.fs_wall[k])
     k = p.n - 1
     qx = st.x[k] + 0.5 * p.h[k] * st.s[k]
     qy = st.y[k] + 0.5 * p.h[k] * st.c[k]
