@@ -562,6 +562,10 @@ def _compute(pending, records, scales, out, scheduler, n_workers, progress, mani
         futures = {}
         for t in pending:
             recs = [records[t.case.records][i] for i in t.index]
+            worker = home.get(t.group)
+            # a preference: an idle worker may take it (distributed refuses the flag with no
+            # worker named, e.g. before any worker has registered)
+            placement = {} if worker is None else dict(workers=worker, allow_other_workers=True)
             fut = client.submit(
                 _run_part,
                 t.case,
@@ -574,8 +578,7 @@ def _compute(pending, records, scales, out, scheduler, n_workers, progress, mani
                 str(out / t.filename),
                 key=f"rockjax-{t.fingerprint}",
                 pure=False,
-                workers=home.get(t.group),
-                allow_other_workers=True,  # a preference: an idle worker may take it
+                **placement,
             )
             futures[fut] = t
         bar = tqdm(total=len(pending), desc="campaign", unit="part", disable=not progress)
