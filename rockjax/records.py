@@ -811,16 +811,9 @@ def _acceleration_units(path: Path, table: _Table, j: int, units: str | None) ->
                 "header."
             )
     header_units = _UNIT_SPELLINGS.get(said) if said is not None else None
-    if units is not None:
-        if header_units is not None and header_units != units:
-            raise ValueError(
-                f"{path}: units={units!r} contradicts the header, which gives column {label} in "
-                f"{stated!r} ({header_units}). Drop units= to read the header's unit, or correct "
-                "the header if it is wrong."
-            )
-        return units, "units="
-    if header_units is not None:
-        return header_units, "header"
+    settled = _settle_unit(path, "units", units, header_units, f"column {label}")
+    if settled[0] is not None:
+        return settled
     if table.header is None:
         why = "the file has no header"
     elif table.names is None:
@@ -850,17 +843,28 @@ def _time_units(
             said = _TIME_SPELLINGS.get(stated.lower())
         elif (suffix := re.search(r"[_\s-](ms|msec|s|sec)$", name.strip().lower())) is not None:
             said = _TIME_SPELLINGS[suffix.group(1)]
-    if time_units is not None:
-        if said is not None and said != time_units:
+    unit, source = _settle_unit(
+        path, "time_units", time_units, said, f"the time column {_column_label(table, j)}"
+    )
+    return unit or "s", source
+
+
+def _settle_unit(
+    path: Path, arg: str, given: str | None, from_header: str | None, column: str
+) -> tuple[str | None, str | None]:
+    """A column's unit and its source: ``arg=`` (``given``) or the header (``from_header``),
+    refused where both are given and differ; ``(None, None)`` where neither is."""
+    if given is not None:
+        if from_header is not None and from_header != given:
             raise ValueError(
-                f"{path}: time_units={time_units!r} contradicts the header, which gives the time "
-                f"column {_column_label(table, j)} in {said}. Drop time_units= to read the "
-                "header's unit, or correct the header if it is wrong."
+                f"{path}: {arg}={given!r} contradicts the header, which gives {column} in "
+                f"{from_header!r}. Drop {arg}= to read the header's unit, or correct the header "
+                "if it is wrong."
             )
-        return time_units, "time_units="
-    if said is not None:
-        return said, "header"
-    return "s", None
+        return given, f"{arg}="
+    if from_header is not None:
+        return from_header, "header"
+    return None, None
 
 
 def _column_index(path: Path, table: _Table, spec, label: str) -> int:
