@@ -119,10 +119,6 @@ def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
         message = " ".join(str(err).split("\n"))
         print(f"error: {message}", file=sys.stderr)
         return 2
-    except OSError as err:  # a path the checks before the runs could not foresee (disk full)
-        where = f": {err.filename}" if err.filename else ""
-        print(f"error: {err.strerror or err}{where}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
@@ -130,6 +126,10 @@ def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
         # the reader (e.g. `| head`) went away: stop quietly, as Unix tools do
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except OSError as err:  # after BrokenPipeError, one of them: a path the checks before the runs could not foresee (disk full)
+        where = f": {err.filename}" if err.filename else ""
+        print(f"error: {err.strerror or err}{where}", file=sys.stderr)
+        return 2
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -1047,6 +1047,15 @@ READER_CASES = [
     ("header_only.csv", "t,a\n", {}, r"header_only\.csv", r"at least 2", None, ""),
     ("three.csv", "0 0 1\n0.01 0 1\n", {}, r"three\.csv, line 1", r"delimiter=", None, ""),
     ("units.csv", "0 0\n0.01 1\n", {"units": "mg"}, r"\bunits\b", r"cm/s2", None, ""),
+    (
+        "time_units.csv",
+        "0 0\n0.01 1\n",
+        {"time_units": "sec"},
+        r"\btime_units\b",
+        r"'ms'",
+        None,
+        "",
+    ),
     ("no_dt.csv", "0\n1\n", {"time_column": False}, r"\bdt\b", r"dt=", None, ""),
     ("both.csv", "0 0\n0.01 1\n", {"dt": 0.01}, r"\bdt\b", r"time_column=False", None, ""),
     (

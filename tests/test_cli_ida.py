@@ -252,3 +252,17 @@ def test_all_runs_failed_exits_1_with_one_error_line(tmp_path, at2_files, monkey
     assert rc == 1, stderr
     assert stderr.startswith("error: all 4 runs failed (status 1: ") and stderr.count("\n") == 1
     assert (tmp_path / "x.nc").exists()
+
+
+def test_write_failure_is_one_error_line(tmp_path, at2_files, monkeypatch):
+    """A write that fails after the checks (a full disk) is one `error:` line, exit 2, not a
+    traceback."""
+
+    def disk_full(self, path, *args, **kwargs):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", disk_full)
+    argv = ["ida", "--records", at2_files[0], "--model", "housner", "--e", 0.9]
+    argv += ["--scales", "0.5", "--tail", 0.5, "--out", tmp_path / "x.nc"]
+    rc, _, stderr = _run(argv)
+    assert rc == 2 and stderr == f"error: No space left on device: {tmp_path / 'x.nc'}\n", stderr
