@@ -5,8 +5,8 @@ bottom corner; a positive ground acceleration drives ``theta`` negative; a facad
 (``mode="one_sided"``) rotates only to ``theta >= 0``, its return walls at its -x face.
 """
 
-import os
-import re
+import os as _os
+import re as _re
 
 # XLA:CPU compiles a while loop into a single kernel (no per-iteration dispatch) only when the
 # loop touches fewer bytes than `xla_cpu_small_while_loop_byte_threshold`. Our time-stepping
@@ -15,24 +15,24 @@ import re
 # XLA reads XLA_FLAGS when its CPU backend starts, so this takes effect only if no JAX
 # computation ran before `import rockjax`. Set ROCKJAX_NO_XLA_TUNING=1 to leave XLA_FLAGS alone.
 _THRESHOLD = "xla_cpu_small_while_loop_byte_threshold=1000000"
-if os.environ.get("ROCKJAX_NO_XLA_TUNING", "0") != "1":
-    _flags = os.environ.get("XLA_FLAGS", "")
+if _os.environ.get("ROCKJAX_NO_XLA_TUNING", "0") != "1":
+    _flags = _os.environ.get("XLA_FLAGS", "")
     if "xla_cpu_small_while_loop_byte_threshold" not in _flags:
         if "--xla_backend_extra_options=" in _flags:
-            _flags = re.sub(
+            _flags = _re.sub(
                 r"--xla_backend_extra_options=(\S*)",
                 rf"--xla_backend_extra_options=\1,{_THRESHOLD}",
                 _flags,
             )
         else:
             _flags = f"{_flags} --xla_backend_extra_options={_THRESHOLD}".strip()
-        os.environ["XLA_FLAGS"] = _flags
+        _os.environ["XLA_FLAGS"] = _flags
 
-import jax  # noqa: E402
+import jax as _jax  # noqa: E402
 
 # The other import side effect: rocking impacts and penalty contacts need float64 (contact
 # penetrations are ~1e-6 of the block size and energies are compared to 1e-6 relative).
-jax.config.update("jax_enable_x64", True)
+_jax.config.update("jax_enable_x64", True)
 
 from . import building as building  # noqa: E402
 from . import calibration as calibration  # noqa: E402

@@ -24,7 +24,10 @@ and writes ``calibration.png`` (DEM at the fitted ``beta`` vs Housner, and the l
 ``calibration.json``; a fit that does not meet its target within the stated tolerance is
 reported with the reason on stderr and exit status 1 (the files are still written).
 
-Errors in the input are reported as one ``error: ...`` line on stderr with exit status 2.
+Errors in the input, and an output file that cannot be written (every file a command writes is
+checked before its first run), are reported as one ``error: ...`` line on stderr with exit
+status 2. An IDA whose runs all fail writes its files and exits with status 1 and one
+``error: ...`` line naming the runs' status.
 """
 
 from __future__ import annotations
@@ -74,6 +77,24 @@ PARAPET_DURATION = 8.0  # [s], at least: 3 bounces at e = 1 (free-rocking period
 FACADE_DT_OUT = 0.002  # [s]: facade bounces are short
 FACADE_DURATION = 1.5  # [s]: the facade is at rest after about 1 s
 FIGURE_FORMATS = ("png", "pdf", "svg")  # matplotlib writes each without extra packages
+DEMO_FILES = (
+    "parapet_free_rocking.png",
+    "parapet_peaks.png",
+    "facade_free_rocking.png",
+    "parapet_ricker.png",
+    "parapet_free_rocking.csv",
+    "facade_free_rocking.csv",
+    "parapet_ricker.csv",
+    "e_beta.png",
+    "e_beta.csv",
+    "calibration.png",
+    "ida_pulses_housner.nc",
+    "ida_pulses_housner.png",
+    "ida_pulses_dem.nc",
+    "ida_pulses_dem.png",
+    "results.json",
+)  # what `rockjax demo` writes into --out, each checked before the first run
+CALIBRATE_FILES = ("calibration.png", "calibration.json")  # `rockjax calibrate`'s, into --out
 
 
 def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
@@ -83,10 +104,10 @@ def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
         argv: Command-line arguments without the program name; default ``sys.argv[1:]``.
 
     Returns:
-        The exit status: 0 on success, 1 when a calibration misses its target (the reason on
-        stderr; its files are still written), 2 on invalid input (after printing
-        ``error: ...``), 130 when interrupted, 1 when the reader of the output goes away (a
-        broken pipe).
+        The exit status: 0 on success, 1 when a calibration misses its target or every run of
+        an IDA failed (the reason on stderr; the files are still written), 2 on invalid input
+        or a file that cannot be read or written (after printing ``error: ...``), 130 when
+        interrupted, 1 when the reader of the output goes away (a broken pipe).
     """
     parser = _parser()
     args = parser.parse_args(None if argv is None else [os.fspath(a) for a in argv])
@@ -105,6 +126,10 @@ def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
         # the reader (e.g. `| head`) went away: stop quietly, as Unix tools do
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except OSError as err:  # after BrokenPipeError, one of them: a path the checks before the runs could not foresee (disk full)
+        where = f": {err.filename}" if err.filename else ""
+        print(f"error: {err.strerror or err}{where}", file=sys.stderr)
+        return 2
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -174,6 +199,7 @@ def _demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} exists and is not a folder; give a folder path.")
+    _check_outputs("--out", [out / name for name in DEMO_FILES])  # before any run
     out.mkdir(parents=True, exist_ok=True)
 
     eta = float(parapet.eta)
@@ -736,14 +762,20 @@ def _add_ida_parser(sub) -> None:
         "--out",
         required=True,
         metavar="FILE.nc",
-        help="NetCDF file to write; the CSV table, figures and fragility summary go next to it "
-        "(FILE.csv, FILE_curves.png, FILE_fragility.png, FILE_fragility.json)",
+        help="NetCDF file to write (.nc is added to a name without a suffix); the CSV table, "
+        "figures and fragility summary go next to it (FILE.csv, FILE_curves.png, "
+        "FILE_fragility.png, FILE_fragility.json)",
     )
     p.set_defaults(run=_ida)
 
 
 def _parse_scales(text: str) -> np.ndarray:
     example = "e.g. --scales 0.05:2.0:40 (40 values from 0.05 to 2.0) or --scales 0.5,1,1.5"
+    if ":" not in text and "," in text and any(not v.strip() for v in text.split(",")):
+        raise ValueError(
+            f"--scales {text!r} has an empty item (two commas in a row, or one at an end); give "
+            f"one number between each pair of commas, {example}."
+        )
     try:
         if ":" in text:
             start, stop, num = text.split(":")
@@ -782,10 +814,29 @@ def _check_writable(flag: str, folder: Path) -> None:
         )
 
 
+def _check_outputs(flag: str, paths: Sequence[Path]) -> None:
+    """Fail now, not after the computation, if any file the command will write cannot be
+    written: each folder as :func:`_check_writable`, and each file must not be a folder nor an
+    existing file that cannot be overwritten."""
+    for folder in dict.fromkeys(path.parent for path in paths):
+        _check_writable(flag, folder)
+    for path in paths:
+        if path.is_dir():
+            raise ValueError(
+                f"{flag}: {path} is a folder, where the command writes a file; move or rename it, "
+                f"or give another {flag}."
+            )
+        if path.exists() and not os.access(path, os.W_OK):
+            raise ValueError(
+                f"{flag}: {path} exists and cannot be overwritten (no write permission); make it "
+                f"writable, or give another {flag}."
+            )
+
+
 def _ida_outputs(out: Path, figure_format: str) -> dict[str, Path]:
     """The files ``rockjax ida`` writes, by kind: the NetCDF ``out`` and, next to it, the CSV
     table, the two figures and the fragility summary (named after ``out``'s stem)."""
-    stem = out.with_suffix("") if out.suffix.lower() == ".nc" else out
+    stem = out.with_suffix("") if out.suffix.lower() in (".nc", ".nc4") else out
     return {
         "netcdf": out,
         "csv": stem.with_name(f"{stem.name}.csv"),
@@ -861,8 +912,18 @@ def _ida(args: argparse.Namespace) -> int:
             f"--out {out} names the NetCDF file, and the {out.suffix} file is one of those "
             f"written next to it; give a path ending in .nc, e.g. {out.with_suffix('.nc')}."
         )
-    _check_writable("--out", out.parent)  # before any run: a bad path loses no work
+    if out.suffix == "":  # `--out results`: the NetCDF file is results.nc (said in the summary)
+        out = out.with_name(f"{out.name}.nc")
+        if out.is_dir():
+            raise ValueError(f"--out {out} is a folder; give a file path such as {out / 'ida.nc'}.")
+    elif out.suffix.lower() not in (".nc", ".nc4"):
+        raise ValueError(
+            f"--out {out} must name a NetCDF file, ending in .nc; got the suffix {out.suffix!r}. "
+            f"Give e.g. --out {out.with_name(out.name + '.nc')}."
+        )
     files = _ida_outputs(out, args.figure_format)
+    # before any run: a bad path loses no work (the figure is written only when the fit exists)
+    _check_outputs("--out", list(files.values()))
     scales = _parse_scales(args.scales)
     block = Block(b=args.b, h=args.h)  # raises ValueError on bad geometry
     # checked here too (rj.ida checks them all) so the error comes before the records load
@@ -876,6 +937,21 @@ def _ida(args: argparse.Namespace) -> int:
             f"--e (restitution) is a Housner parameter; --model dem takes --beta [s]. "
             f"Got --e {args.e:g}."
         )
+    if args.e is not None and not (math.isfinite(args.e) and 0.0 < args.e <= 1.0):
+        raise ValueError(
+            f"--e (restitution, dimensionless) must lie in (0, 1]; got --e {args.e:g}. E.g. "
+            "--e 0.9, or leave it out for the paper's default."
+        )
+    if args.model == "housner" and args.e is None:
+        e_default = float(e_isr(block) if args.mode == "one_sided" else e_housner(block))
+        if not 0.0 < (abs(e_default) if args.mode == "one_sided" else e_default) <= 1.0:
+            which = "e_H (Eq. 2)" if args.mode == "two_sided" else "e_1SR (Eq. 5)"
+            raise ValueError(
+                f"the default restitution {which} = {e_default:.3g} is not a restitution "
+                f"coefficient for this block ({args.b:g} x {args.h:g} m, h/b = "
+                f"{args.h / args.b:.3g}): the closed form holds for slender blocks. Give a "
+                "measured value with --e, e.g. --e 0.9."
+            )
     beta = args.beta
     if args.model == "dem" and beta is None:
         beta = float(beta_dejong(block))
@@ -953,6 +1029,15 @@ def _ida(args: argparse.Namespace) -> int:
         print(line, flush=True)
     names = ", ".join(str(path) for path in files.values())
     print(f"wrote {names} in {time.perf_counter() - t_start:.1f} s", flush=True)
+    if failed == n_runs:
+        codes = sorted({int(c) for c in np.unique(np.asarray(ds["status"]))})
+        why = "; ".join(f"status {c}: {STATUS_MESSAGES.get(c, '?')}" for c in codes)
+        print(
+            f"error: all {n_runs} runs failed ({why}); the files hold no result. See the "
+            f"'status' variable of {out}.",
+            file=sys.stderr,
+        )
+        return 1
     if failed:
         print(f"warning: {failed} runs failed; see the 'status' variable", file=sys.stderr)
     return 0
@@ -1059,7 +1144,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} exists and is not a folder; give a folder path.")
-    _check_writable("--out", out)  # before the fit: a bad path loses no work
+    _check_outputs("--out", [out / name for name in CALIBRATE_FILES])  # before the fit
     mode = args.mode or ("one_sided" if args.target == "bounces" else "two_sided")
     target = args.target or default_target(mode)
     if target == "bounces":

@@ -262,9 +262,18 @@ def fragility(
     n_runs = int(valid.sum())
     n_no_collapse = int(np.sum(~np.any(collapse & valid, axis=1)))
     n_collapse = int(np.sum(collapse & valid))
+    im_name, im_units = str(im_grid.name), str(im_grid.attrs.get("units", ""))
+
+    def show(value: float) -> str:
+        return f"{im_name} = {_im_text(value, im_units)}"
+
     if n_collapse == 0 or n_collapse == n_runs:
         what = "no valid run collapsed" if n_collapse == 0 else "every valid run collapsed"
         fix = "larger" if n_collapse == 0 else "smaller"
+        if n_runs:
+            reached = x_im[valid].max() if n_collapse == 0 else x_im[valid].min()
+            where = "up to" if n_collapse == 0 else "down to"
+            what += f" {where} {show(float(reached))}"
         raise ValueError(
             f"the fragility is undefined: {what} ({n_runs} valid runs of {n_rec} records). "
             f"Widen the scale range of rj.ida to {fix} scale factors so that the runs include "
@@ -283,7 +292,7 @@ def fragility(
     else:
 
         def fit(w_rec, start=None):
-            return _fit_mle(x, y, w_rec[rec_of_run], start)
+            return _fit_mle(x, y, w_rec[rec_of_run], start, show)
 
     mu, sigma, reason = fit(np.ones(n_rec))
     if reason:
@@ -319,8 +328,8 @@ def fragility(
         n_no_collapse=n_no_collapse,
         n_boot_failed=int(n_boot - boot.shape[0]),
         method="first_collapse" if first_collapse else "mle",
-        im=str(im_grid.name),
-        im_units=str(im_grid.attrs.get("units", "")),
+        im=im_name,
+        im_units=im_units,
         boot_median=boot_median,
         boot_beta_log=boot_beta_log,
     )
@@ -399,6 +408,15 @@ def _to_g(units: str) -> float | None:
     return {"m/s^2": 1.0 / G, "g": 1.0}.get(units)
 
 
+def _im_text(value: float, units: str) -> str:
+    """An IM value with its unit, in g first where it is an acceleration: ``0.327 g (3.21
+    m/s^2)``, ``0.41 m/s``, ``1.5`` (a scale factor)."""
+    factor = _to_g(units)
+    if factor is not None and units != "g":
+        return f"{value * factor:.4g} g ({value:.4g} {units})"
+    return f"{value:.4g}" + (f" {units}" if units not in ("", "1") else "")
+
+
 def _norm_tail(z: np.ndarray) -> np.ndarray:
     """``Phi(-|z|)``, the smaller tail, accurate to the last bits (no ``1 - Phi`` rounding)."""
     return np.asarray(0.5 * np.asarray(_erfc(np.abs(z) / _SQRT2), dtype=float), dtype=float)
@@ -432,11 +450,13 @@ def _probit_terms(eta: np.ndarray, y: np.ndarray, w: np.ndarray):
     return ll, d1, d2
 
 
-def _fit_mle(x: np.ndarray, y: np.ndarray, w: np.ndarray, start=None):
+def _fit_mle(x: np.ndarray, y: np.ndarray, w: np.ndarray, start=None, show=None):
     """Weighted probit MLE of ``y ~ Phi((x - mu)/sigma)``: ``(mu, sigma, "")`` or a reason.
 
-    ``start`` is an optional ``(mu, sigma)`` first guess (the full-data fit, for the bootstrap).
+    ``start`` is an optional ``(mu, sigma)`` first guess (the full-data fit, for the bootstrap);
+    ``show`` words an IM value (``x`` is its log) for the reason, with its name and unit.
     """
+    show = (lambda v: f"IM {v:.4g}") if show is None else show
     use = w > 0
     x, y, w = x[use], y[use], w[use]
     hit, miss = x[y > 0], x[y == 0]
@@ -446,9 +466,9 @@ def _fit_mle(x: np.ndarray, y: np.ndarray, w: np.ndarray, start=None):
         return (
             np.nan,
             np.nan,
-            f"every collapse (IM >= {math.exp(hit.min()):.4g}) lies above every survival "
-            f"(IM <= {math.exp(miss.max()):.4g}), so sigma -> 0. Add records, or scale factors "
-            f"between those IMs, so that collapses and survivals overlap.",
+            f"every collapse (from {show(math.exp(hit.min()))}) lies above every survival "
+            f"(up to {show(math.exp(miss.max()))}), so sigma -> 0. Add records, or scale "
+            "factors between those IMs, so that collapses and survivals overlap.",
         )
     if hit.max() <= miss.min():
         return (

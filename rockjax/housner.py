@@ -1517,7 +1517,7 @@ def simulate_housner(
     default_e = e is None
     if default_e:
         e = e_isr(block.eta) if one_sided else e_housner(block.eta)
-    _check_e(e, one_sided, default=default_e)
+    check_restitution(e, one_sided, default=default_e)
     # Compile once per bucket: with nothing traced the record is padded (its last sample
     # repeated, which the solver's evaluation beyond the end already holds) and its length
     # passed as data. Under the caller's jit/vmap/grad their transform fixes the shapes.
@@ -1959,7 +1959,10 @@ def _fit(a, n: int):
     return v[:n] if v.shape[0] >= n else np.pad(v, (0, n - v.shape[0]))
 
 
-def _check_e(e, one_sided: bool, default: bool) -> None:
+def check_restitution(e, one_sided: bool, default: bool) -> None:
+    """Refuse a concrete restitution ``e`` [-] outside (0, 1] (one-sided: its magnitude), naming
+    the paper's default (Eq. 2, Eq. 5) when ``default`` (it leaves that range for squat blocks).
+    A traced ``e`` is checked in-graph by the solver."""
     v = concrete(e)
     if v is None:
         return

@@ -67,7 +67,7 @@ from .compilation import persistent_jit
 from .constants import G
 from .contact import Joint
 from .dem import simulate_dem, stable_dt
-from .housner import P_DT_TARGET, batch_runs, simulate_housner
+from .housner import P_DT_TARGET, batch_runs, check_restitution, simulate_housner
 from .motion import GroundMotion
 from .multiblock import (
     check_storey,
@@ -335,11 +335,13 @@ def run_config(
         if e is not None:
             check_scalar("e", e, "[-]", "e.g. e=0.9, or e=None for the default.")
         e = None if e is None else float(e)
-        if e is None:  # the simulator's default: Eq. (2) two-sided, |Eq. (5)| one-sided
-            e_used = float(np.abs(e_isr(block.eta) if one_sided else e_housner(block.eta)))
-        else:
-            e_used = e
-        e_used = abs(e_used) if one_sided else e_used  # simulate_housner uses |e| one-sided
+        # the simulator's default: Eq. (2) two-sided, Eq. (5) one-sided; e_H < 0 for a block
+        # wider than tall (eta > 54.7 deg) is refused here, not run into failed runs
+        e_run = (
+            e if e is not None else float(e_isr(block.eta) if one_sided else e_housner(block.eta))
+        )
+        check_restitution(e_run, one_sided, default=e is None)
+        e_used = abs(e_run) if one_sided else e_run  # simulate_housner uses |e| one-sided
         # the step bound simulate_housner picks for a concrete block
         dt_bound = P_DT_TARGET / float(block.p)
     config = dict(

@@ -41,6 +41,20 @@ def _step(dt) -> float:
     return float(np.asarray(dt, dtype=float))
 
 
+def _series(a):
+    """A list or tuple of numbers as a float64 array (stored as given, ``ag=[0.0, 1.0]`` would
+    make ``scaled(2.0)`` multiply a list); anything else as given, for the checks of
+    ``GroundMotion.__check_init__`` (text, bools and objects are refused there, not converted)."""
+    if isinstance(a, list | tuple):
+        try:
+            v = np.asarray(a)
+        except (TypeError, ValueError, jax.errors.TracerArrayConversionError):
+            return a
+        if v.dtype.kind in "iuf":
+            return v.astype(float)
+    return a
+
+
 class GroundMotion(eqx.Module):
     """A ground acceleration record sampled at a uniform step.
 
@@ -58,12 +72,12 @@ class GroundMotion(eqx.Module):
             :meth:`with_metadata`. It never enters a computation.
     """
 
-    ag: Float[ArrayLike, " time"]
+    ag: Float[ArrayLike, " time"] = eqx.field(converter=_series)
     # dt is static: it fixes the number of steps of every simulation, which must be concrete.
     # The converter checks it before equinox stores it (an array would be stored as static).
     dt: float = eqx.field(static=True, converter=_step)
     name: str = eqx.field(static=True, default="record")
-    ag_v: Float[ArrayLike, " time"] | None = None
+    ag_v: Float[ArrayLike, " time"] | None = eqx.field(default=None, converter=_series)
     # A tuple of string pairs rather than a dict: a dict would be a pytree whose values JAX
     # traces, while a static field must be hashable (equinox compares static fields to decide
     # on recompiling). Records with different meta (or name) have different treedefs: batch

@@ -11,9 +11,6 @@ new figure, and returns the ``Axes``; the figure is ``ax.figure``. Save it with
 
 from __future__ import annotations
 
-import os
-import sys
-import warnings
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -24,11 +21,32 @@ from .motion import GroundMotion
 from .relations import amplitude_after_impacts
 from .response import Response
 
+__all__ = [
+    "calibration",
+    "close",
+    "e_beta",
+    "fragility",
+    "ground_motion",
+    "ida",
+    "pairs",
+    "peaks_decay",
+    "pyplot",
+    "time_history",
+]
+
 _FIGSIZE = (7.0, 4.0)
+
+
+def __dir__() -> list[str]:
+    """What ``dir(rj.plot)`` and tab completion list: the figures, not the module's imports."""
+    return sorted(__all__)
 
 
 def pyplot():
     """Import ``matplotlib.pyplot``, choosing Agg first when there is no display to draw on."""
+    import os
+    import sys
+
     import matplotlib
 
     headless = sys.platform.startswith("linux") and not (
@@ -214,6 +232,8 @@ def e_beta(
         if e.ndim == 1:
             ax.plot(betas, e, "o-", ms=5, lw=1.2, label=name)
             continue
+        import warnings
+
         with warnings.catch_warnings():
             # a bounce that never happened is NaN; an all-NaN row stays NaN without a warning
             warnings.simplefilter("ignore", RuntimeWarning)

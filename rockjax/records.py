@@ -181,17 +181,28 @@ def write_at2(
 CSV_UNITS = {"g": None, "m/s2": 1.0, "cm/s2": 0.01, "mm/s2": 0.001, "in/s2": 0.0254}
 """Acceleration units :func:`read_csv` reads, and their factor to m/s^2 (``"g"``: its ``g``)."""
 
+CSV_TIME_UNITS = {"s": 1.0, "ms": 1e-3}
+"""Time units :func:`read_csv` reads, and their factor to s."""
+
+MAX_PLAUSIBLE_STEP = 0.1
+"""Longest sampling step [s] :func:`read_csv` takes for a time column in seconds without being
+told: strong-motion records are sampled at 0.005-0.02 s (50-200 Hz; a 10 Hz record cannot carry
+the 1-10 Hz that rock a wall), while the same times written in milliseconds step by 5-20. A
+longer step raises, asking for ``time_units="ms"`` (or ``"s"``, which takes it as stated)."""
+
 
 def read_csv(
     path: str | os.PathLike,
     *,
     column: int | str | None = None,
     time_column: bool | int | str = True,
-    units: Literal["g", "m/s2", "cm/s2", "mm/s2", "in/s2"] = "g",
+    units: Literal["g", "m/s2", "cm/s2", "mm/s2", "in/s2"] | None = None,
+    time_units: Literal["s", "ms"] | None = None,
     dt: float | None = None,
     resample: float | None = None,
     header: bool | None = None,
     delimiter: str | None = None,
+    decimal: Literal[".", ","] = ".",
     name: str | None = None,
     g: float = G,
     rtol: float = 1e-6,
@@ -199,16 +210,30 @@ def read_csv(
     """Read a record from a plain text or CSV file: a time column and one or more acceleration
     columns (an OpenSees recorder file, a spreadsheet export), or a bare acceleration column.
 
+    Units. A text file does not say its units unless its header does, and a wrong guess is off
+    by 9.81 (g for m/s^2) or 100 (cm/s^2), so nothing is assumed: the acceleration's units come
+    from the header, where the column's name states them in brackets or parentheses
+    (``acc [m/s2]``, ``accel (g)``, ``a [cm/s^2]``, ``ag (gal)``; spellings such as ``m/s^2``,
+    ``m/s**2``, ``m/sec/sec``, ``m s-2``, ``m/s²`` are recognised), or from ``units=``; with
+    neither, or with a ``units=`` that contradicts the header, it raises. An OpenSees recorder
+    writes no header: pass ``units="m/s2"`` for a model in N, m, s, ``units="in/s2"`` for kip,
+    inch, second. The times are in seconds unless the time column's name says ``[ms]``
+    (``(ms)``, ``_ms``) or ``time_units="ms"`` is passed; times in seconds that step by more
+    than :data:`MAX_PLAUSIBLE_STEP` are taken for milliseconds and refused, with the fix.
+
     Layout. Columns are separated by commas, semicolons or blanks: by default the first data
     line decides (a comma if it has one, else a semicolon, else any run of blanks), or give
-    ``delimiter=``. A ``#`` starts a comment that runs to the end of its line (as in
-    ``numpy.loadtxt``), and blank lines are skipped; a UTF-8 byte order mark (Excel's "CSV
-    UTF-8") is dropped, and UTF-16 files with a byte order mark are read. The first other line is a header (column names) when none of its
-    fields is a number, or when ``header=True``; every later line must be a data row with as
-    many numbers as the first one (one trailing separator is allowed): a row that does not
-    parse is an error naming its line, never skipped.
+    ``delimiter=``. Numbers with decimal commas (``0,01;0,25``, a spreadsheet in a European
+    locale) are read with ``decimal=","`` (the columns are then separated by semicolons, tabs
+    or blanks); without it such a field is an error that says so. A ``#`` starts a comment
+    that runs to the end of its line (as in ``numpy.loadtxt``), and blank lines are skipped; a
+    UTF-8 byte order mark (Excel's "CSV UTF-8") is dropped, and UTF-16 files with a byte order
+    mark are read. The first other line is a header (column names) when none of its fields is
+    a number, or when ``header=True``; every later line must be a data row with as many
+    numbers as the first one (one trailing separator is allowed): a row that does not parse
+    is an error naming its line, never skipped.
 
-    Columns. ``time_column`` picks the times [s]: ``True`` (the first column, as OpenSees
+    Columns. ``time_column`` picks the times: ``True`` (the first column, as OpenSees
     recorders write it with ``-time``), a 0-based index, a header name, or ``False`` for a file
     without times (then pass ``dt``). ``column`` picks the acceleration: a 0-based index
     (counting the time column; negative counts from the end), a header name, or ``None`` when
@@ -216,8 +241,8 @@ def read_csv(
     several nodes or DOFs) ``column`` must say which, and the error lists them.
 
     Times. The first time is taken as ``t = 0`` and, if it was not 0 (OpenSees writes the end
-    of the first step, ``t = dt``), kept in ``metadata["t_start"]``. Times must increase. They
-    must be uniform to ``rtol`` (relative to the mean step) unless ``resample`` is given: a
+    of the first step, ``t = dt``), kept in ``metadata["t_start"]`` [s]. Times must increase.
+    They must be uniform to ``rtol`` (relative to the mean step) unless ``resample`` is given: a
     variable-step analysis (OpenSees ``VariableTransient``, sub-stepping after a failed step)
     raises an error that says how far the steps spread and which line has the worst. With
     ``resample=dt_new`` the record is interpolated linearly onto ``t_start + k dt_new`` up to
@@ -231,34 +256,56 @@ def read_csv(
     Args:
         path: The file.
         column: The acceleration column: 0-based index, header name, or None (the only one).
-        time_column: The time column [s]: True (the first), a 0-based index, a header name, or
+        time_column: The time column: True (the first), a 0-based index, a header name, or
             False (no times; pass ``dt``).
         units: Units of the acceleration column: ``"g"``, ``"m/s2"``, ``"cm/s2"``, ``"mm/s2"``
-            or ``"in/s2"`` (an OpenSees model in kip, inch, second).
+            or ``"in/s2"`` (an OpenSees model in kip, inch, second); default None: the unit
+            the header states for the column (required when it states none).
+        time_units: Units of the time column, ``"s"`` or ``"ms"``; default None: the header's
+            (``time [ms]``), else seconds with the plausibility check above.
         dt: Sampling step [s] of a file without a time column.
         resample: Interpolate linearly onto this uniform step [s] (see Times); default None:
             the file's step, which must then be uniform.
         header: True if the first non-comment line is a header, False if it is data, None to
             decide from its fields (a header has no field that is a number).
         delimiter: Column separator; default from the first data line (see Layout).
+        decimal: The decimal mark of the numbers, ``"."`` or ``","``.
         name: Record name; default the file stem.
         g: Standard gravity [m/s^2] for ``units="g"``.
         rtol: Relative tolerance on the uniformity of the time steps [-].
 
     Returns:
-        The record, accelerations in m/s^2; ``metadata`` holds ``file``, ``units``, the
-        ``column`` read (and ``time_column``), the ``header`` line if any, ``t_start`` and
-        ``resampled`` where they apply.
+        The record, accelerations in m/s^2 and times in s; ``metadata`` holds ``file``,
+        ``units`` (and ``units_from``: ``"header"`` or ``"units="``), the ``column`` read (and
+        ``time_column``, with ``time_units`` where they were not seconds), the ``header`` line
+        if any, ``t_start`` and ``resampled`` where they apply.
 
     Raises:
-        ValueError: for a missing or misplaced ``dt``, an unknown or ambiguous column, a row
-            with the wrong number of columns, a field that is not a number, an empty field, a
-            NaN or infinite value in a column read, fewer than 2 rows, times that do not
-            increase, non-uniform times without ``resample``, or accelerations above 10 g in
-            the given ``units`` (a unit slip); the message names the file and the line.
+        ValueError: for acceleration units that neither the header nor ``units=`` state, a
+            ``units=`` or ``time_units=`` that contradicts the header, a column whose header
+            names a velocity or displacement unit, a missing or misplaced ``dt``, an unknown
+            or ambiguous column, a row with the wrong number of columns, a field that is not a
+            number (decimal commas without ``decimal=","``), an empty field, a NaN or infinite
+            value in a column read, fewer than 2 rows, times that do not increase, a step
+            above :data:`MAX_PLAUSIBLE_STEP` in seconds not confirmed by ``time_units="s"``,
+            non-uniform times without ``resample``, or accelerations above 10 g in the units
+            read (a unit slip); the message names the file and the line.
     """
     path = Path(path)
-    check_choice("units", units, set(CSV_UNITS))
+    if units is not None:
+        check_choice("units", units, set(CSV_UNITS))
+    if time_units is not None:
+        check_choice("time_units", time_units, set(CSV_TIME_UNITS))
+    if decimal not in (".", ","):
+        raise ValueError(
+            f'decimal must be "." or "," (the decimal mark of the numbers); got decimal={decimal!r}.'
+        )
+    if decimal == "," and delimiter == ",":
+        raise ValueError(
+            f'{path}: decimal="," and delimiter="," cannot both hold: with decimal commas the '
+            'columns are separated by semicolons, tabs or blanks. Pass delimiter=";" (or leave '
+            "it out)."
+        )
     check_positive("g", g, "m/s^2", "The default is standard gravity, 9.80665.")
     check_positive("rtol", rtol, "[-]", "The default is 1e-6.", scalar=True)
     if header is not None and not isinstance(header, bool):
@@ -286,6 +333,11 @@ def read_csv(
                 f"{path}: a file without times needs its sampling step: pass dt=... in seconds, "
                 "or time_column=True if the first column holds the times."
             )
+        if time_units is not None:
+            raise ValueError(
+                f"{path}: time_units={time_units!r} was given but time_column=False reads no "
+                "times; dt is in seconds. Drop time_units=."
+            )
         check_positive("dt", dt, "s", "Use the record's sampling step, e.g. dt=0.01.", scalar=True)
     if resample is not None:
         check_positive(
@@ -296,7 +348,7 @@ def read_csv(
             scalar=True,
         )
 
-    table = _read_table(path, header, delimiter)
+    table = _read_table(path, header, delimiter, decimal)
     n_cols = table.values.shape[1]
     t_idx = None if time_column is False else _column_index(path, table, time_column, "time_column")
     if n_cols == 1 and t_idx is not None:
@@ -334,23 +386,32 @@ def read_csv(
                 "or trim the record first."
             )
 
+    units, units_from = _acceleration_units(path, table, a_idx, units)
     factor = g if units == "g" else CSV_UNITS[units]
     raw = table.values[:, a_idx]
     peak = float(np.max(np.abs(raw))) * factor
     if peak > PLAUSIBLE_LIMIT_G * G:
-        suggest = " or ".join(
-            f"units={u!r}"
+        fits = [
+            u
             for u in ("m/s2", "cm/s2", "mm/s2")
             if u != units and float(np.max(np.abs(raw))) * CSV_UNITS[u] <= PLAUSIBLE_LIMIT_G * G
-        )
+        ]
+        if units_from == "units=":
+            read_as = f"units={units!r}"
+            fix = f"Pass {' or '.join(f'units={u!r}' for u in fits) or 'the units the file holds'}."
+        else:
+            read_as = f"the header's unit ({units})"
+            fix = (
+                f"Correct the unit in the header ({' or '.join(fits) or 'the file holds another'})."
+            )
         raise ValueError(
             f"{path}: column {_column_label(table, a_idx)} peaks at {peak / G:.3g} g read with "
-            f"units={units!r}, above the plausibility limit of {PLAUSIBLE_LIMIT_G:g} g for a "
-            f"ground acceleration: the file is probably in other units. Pass "
-            f"{suggest or 'the units the file holds'}."
+            f"{read_as}, above the plausibility limit of {PLAUSIBLE_LIMIT_G:g} g for a "
+            f"ground acceleration: the file is probably in other units. {fix}"
         )
     name = path.stem if name is None else name
-    meta = {"file": path.name, "units": units, "column": _column_name(table, a_idx)}
+    meta = {"file": path.name, "units": units, "units_from": units_from}
+    meta["column"] = _column_name(table, a_idx)
     if table.header is not None:
         meta["header"] = table.header
     if t_idx is None:
@@ -360,7 +421,10 @@ def read_csv(
         return motion.with_metadata(**meta)
 
     meta["time_column"] = _column_name(table, t_idx)
-    t = table.values[:, t_idx]
+    time_units, time_from = _time_units(path, table, t_idx, time_units)
+    t = table.values[:, t_idx] * CSV_TIME_UNITS[time_units]
+    if time_units != "s":
+        meta["time_units"] = f"{time_units} (converted to s)"
     ts = time_steps(t, rtol)
     steps, mean, off = ts.steps, ts.mean, ts.off
     if ts.first_back is not None:
@@ -371,6 +435,14 @@ def read_csv(
             f"{table.lines[k]} (steps that do not increase: {ts.n_back}). Sort the rows by "
             "time and drop repeated times, or check time_column= (it reads column "
             f"{_column_label(table, t_idx)})."
+        )
+    if time_from is None and float(np.median(steps)) > MAX_PLAUSIBLE_STEP:
+        raise ValueError(
+            f"{path}: the time column {_column_label(table, t_idx)} steps by "
+            f"{float(np.median(steps)):.6g} (median), which in seconds is longer than any "
+            f"strong-motion record's step (at most {MAX_PLAUSIBLE_STEP:g} s): the times are "
+            "probably in milliseconds. Pass time_units='ms' (or name the column 'time [ms]'), "
+            "or time_units='s' if the step is meant."
         )
     if t[0] != 0.0:
         meta["t_start"] = repr(float(t[0]))
@@ -571,7 +643,7 @@ class _Table(NamedTuple):
 _COMMENT_RE = re.compile(r"#.*$")  # as numpy.loadtxt: a comment runs from any # to the line end
 
 
-def _read_table(path: Path, header: bool | None, delimiter: str | None) -> _Table:
+def _read_table(path: Path, header: bool | None, delimiter: str | None, decimal: str) -> _Table:
     rows: list[list[str]] = []
     lines: list[int] = []
     head_text = None
@@ -585,7 +657,7 @@ def _read_table(path: Path, header: bool | None, delimiter: str | None) -> _Tabl
                 if delimiter is None:
                     fields = [tok for tok in re.split(r"[\s,;]+", text) if tok]
                 else:
-                    fields = _splitter(text, delimiter)(text)
+                    fields = _splitter(text, delimiter, decimal)(text)
                 is_header = not any(_is_number_or_non_finite(tok) for tok in fields)
             else:
                 is_header = header
@@ -593,8 +665,10 @@ def _read_table(path: Path, header: bool | None, delimiter: str | None) -> _Tabl
                 head_text = text
                 continue
         if split is None:  # the first data row decides the separator, not the header
-            split = _splitter(text, delimiter)
+            split = _splitter(text, delimiter, decimal)
         tokens = split(text)
+        if decimal == ",":
+            tokens = [tok.replace(",", ".") for tok in tokens]
         if rows and len(tokens) != len(rows[0]):
             raise ValueError(
                 f"{path}, line {lineno}: {len(tokens)} values, expected {len(rows[0])} as on line "
@@ -608,8 +682,11 @@ def _read_table(path: Path, header: bool | None, delimiter: str | None) -> _Tabl
                 )
             if not _is_number_or_non_finite(tok):
                 hint = ""
-                if re.fullmatch(r"[-+]?\d*,\d+", tok):
-                    hint = " Decimal commas are not read: replace them by points."
+                if re.fullmatch(r"[-+]?\d*,\d+(?:[EeDd][-+]?\d+)?", tok):
+                    hint = (
+                        " It has a decimal comma: pass decimal=',' to read such numbers (the "
+                        "columns then split at semicolons, tabs or blanks)."
+                    )
                 elif not rows and header is None:
                     hint = (
                         " If this line is a header with a number in it, pass header=True; a "
@@ -624,7 +701,9 @@ def _read_table(path: Path, header: bool | None, delimiter: str | None) -> _Tabl
     if not rows:
         raise ValueError(_too_few_rows(path, 0))
     values = np.array([[_number(tok) for tok in row] for row in rows], dtype=float)
-    names = None if head_text is None else _header_names(head_text, delimiter, len(rows[0]))
+    names = None
+    if head_text is not None:
+        names = _header_names(head_text, delimiter, len(rows[0]), decimal)
     return _Table(values, lines, rows, head_text, names)
 
 
@@ -635,10 +714,12 @@ def _too_few_rows(path: Path, n: int) -> str:
     )
 
 
-def _splitter(text: str, delimiter: str | None):
+def _splitter(text: str, delimiter: str | None, decimal: str = "."):
     if delimiter is None:
-        # a semicolon first: files with decimal commas separate their columns by semicolons
-        delimiter = next((d for d in (";", ",") if d in text), " ")
+        # a semicolon first: files with decimal commas separate their columns by semicolons;
+        # with decimal commas a comma is never a separator
+        separators = (";", ",") if decimal == "." else (";", "\t")
+        delimiter = next((d for d in separators if d in text), " ")
     if delimiter == " ":  # any run of blanks and tabs
         return lambda s: s.split()
 
@@ -651,14 +732,139 @@ def _splitter(text: str, delimiter: str | None):
     return split
 
 
-def _header_names(text: str, delimiter: str | None, n_cols: int) -> list[str] | None:
+def _header_names(
+    text: str, delimiter: str | None, n_cols: int, decimal: str = "."
+) -> list[str] | None:
     """The header's column names, or None when they cannot be matched to the columns."""
     tries = [delimiter] if delimiter is not None else [",", ";", "\t", " "]
     for d in tries:
-        names = _splitter(text, d)(text)
+        names = _splitter(text, d, decimal)(text)
         if len(names) == n_cols:
             return names
     return None
+
+
+# A unit stated in a column's name: the last bracketed part, `acc [m/s2]`, `accel (g)`.
+_NAME_UNIT_RE = re.compile(r"[\[(]([^\[\]()]*)[\])]")
+_UNIT_SPELLINGS = {
+    "g": "g",
+    "gs": "g",
+    "g's": "g",
+    "m/s2": "m/s2",
+    "cm/s2": "cm/s2",
+    "gal": "cm/s2",
+    "gals": "cm/s2",
+    "mm/s2": "mm/s2",
+    "in/s2": "in/s2",
+    "inch/s2": "in/s2",
+}
+_TIME_SPELLINGS = {
+    "s": "s",
+    "sec": "s",
+    "secs": "s",
+    "second": "s",
+    "seconds": "s",
+    "ms": "ms",
+    "msec": "ms",
+    "msecs": "ms",
+    "millisecond": "ms",
+    "milliseconds": "ms",
+}
+_LENGTHS = ("m", "cm", "mm", "in", "inch", "ft")
+_ACCEPTED = "g, m/s2 (m/s^2, m/s**2, m/sec/sec, m s-2), cm/s2 (gal), mm/s2 or in/s2"
+
+
+def _name_unit(name: str) -> str | None:
+    """The unit a column's name states in brackets or parentheses, as written (or None)."""
+    found = _NAME_UNIT_RE.findall(name)
+    return found[-1].strip() if found and found[-1].strip() else None
+
+
+def _normal_unit(text: str) -> str:
+    """An acceleration unit in one spelling: lower case, no blanks, ``m/s^2``, ``m/s**2``,
+    ``m/sec/sec``, ``m s-2``, ``m·s⁻²`` all read ``m/s2``."""
+    u = text.strip().lower().translate(str.maketrans({"²": "2", "⁻": "-", "·": ".", "⋅": "."}))
+    u = re.sub(r"\s+", "", u).replace("**", "").replace("^", "")
+    u = re.sub(r"sec(?:ond)?s?", "s", u)
+    u = re.sub(r"/s/s$", "/s2", u)
+    return re.sub(r"^([a-z]+?)\.?s-2$", r"\1/s2", u)
+
+
+def _acceleration_units(path: Path, table: _Table, j: int, units: str | None) -> tuple[str, str]:
+    """The units of column ``j`` [one of CSV_UNITS] and where they come from (``"header"`` or
+    ``"units="``): the header's where it states them, checked against ``units``."""
+    label = _column_label(table, j)
+    stated = None if table.names is None else _name_unit(table.names[j])
+    said = None if stated is None else _normal_unit(stated)
+    if said is not None and said not in _UNIT_SPELLINGS:
+        kind = (
+            "a velocity"
+            if re.fullmatch(rf"(?:{'|'.join(_LENGTHS)})/s", said)
+            else "a displacement"
+            if said in _LENGTHS
+            else None
+        )
+        if kind is not None:
+            raise ValueError(
+                f"{path}: column {label} holds {kind} by its header ({stated!r}); read_csv "
+                "reads accelerations. Pick the acceleration column with column=, or correct the "
+                "header."
+            )
+    header_units = _UNIT_SPELLINGS.get(said) if said is not None else None
+    settled = _settle_unit(path, "units", units, header_units, f"column {label}")
+    if settled[0] is not None:
+        return settled
+    if table.header is None:
+        why = "the file has no header"
+    elif table.names is None:
+        why = f"its header {table.header!r} does not split into one name per column"
+    elif stated is None:
+        why = f"its header names it {table.names[j]!r}, without a unit in brackets"
+    else:
+        why = f"its header's unit {stated!r} is not one read_csv reads ({_ACCEPTED})"
+    raise ValueError(
+        f"{path}: the units of the acceleration column {label} are not stated: {why}, and "
+        "read_csv does not guess (g for m/s^2 would be 9.81 times off). Pass units='m/s2' (an "
+        "OpenSees model in N, m, s), units='g', units='cm/s2', units='mm/s2' or units='in/s2' "
+        "(kip, inch, second), or name the unit in the header, e.g. 'acc [m/s2]'."
+    )
+
+
+def _time_units(
+    path: Path, table: _Table, j: int, time_units: str | None
+) -> tuple[str, str | None]:
+    """The units of the time column ``j`` (``"s"`` or ``"ms"``) and where they come from
+    (``"header"``, ``"time_units="``, or None: assumed seconds, to be checked)."""
+    said = None
+    if table.names is not None:
+        name = table.names[j]
+        stated = _name_unit(name)
+        if stated is not None:
+            said = _TIME_SPELLINGS.get(stated.lower())
+        elif (suffix := re.search(r"[_\s-](ms|msec|s|sec)$", name.strip().lower())) is not None:
+            said = _TIME_SPELLINGS[suffix.group(1)]
+    unit, source = _settle_unit(
+        path, "time_units", time_units, said, f"the time column {_column_label(table, j)}"
+    )
+    return unit or "s", source
+
+
+def _settle_unit(
+    path: Path, arg: str, given: str | None, from_header: str | None, column: str
+) -> tuple[str | None, str | None]:
+    """A column's unit and its source: ``arg=`` (``given``) or the header (``from_header``),
+    refused where both are given and differ; ``(None, None)`` where neither is."""
+    if given is not None:
+        if from_header is not None and from_header != given:
+            raise ValueError(
+                f"{path}: {arg}={given!r} contradicts the header, which gives {column} in "
+                f"{from_header!r}. Drop {arg}= to read the header's unit, or correct the header "
+                "if it is wrong."
+            )
+        return given, f"{arg}="
+    if from_header is not None:
+        return from_header, "header"
+    return None, None
 
 
 def _column_index(path: Path, table: _Table, spec, label: str) -> int:

@@ -676,6 +676,19 @@ IDA_CASES = [
         r"quotes",
     ),
     _case("devices-empty", lambda: _ida(devices=[]), r"\bdevices\b", r"jax\.local_devices"),
+    _case(
+        # a block wider than tall: every run would fail (e_H = -0.2), refused before any
+        "housner-squat-default-e",
+        lambda: rj.ida(rj.Block(**SQUAT), [GM], [1.0], model="housner", progress=False),
+        r"e_H = -0\.2",
+        r"pass e explicitly, 0 < e <= 1",
+    ),
+    _case(
+        "housner-e-negative",
+        lambda: _ida(model="housner", beta=None, e=-0.5),
+        r"\be\b.*-0\.5",
+        r"0 < e <= 1",
+    ),
 ]
 
 
@@ -823,16 +836,25 @@ FRAGILITY_CASES = [
     ),
     _case("n_boot-float", lambda: rj.fragility(_ida_dataset(), n_boot=10.5), r"\bn_boot\b", "1000"),
     _case(
+        # the IM named with its unit, in g first: 6 m/s^2 / 9.80665 = 0.6118 g
         "no-collapse",
         lambda: rj.fragility(_ida_dataset(collapse_from=(9, 9, 9))),
-        r"no valid run collapsed",
+        r"no valid run collapsed up to pga = 0\.6118 g \(6 m/s\^2\)",
         r"larger scale",
     ),
     _case(
+        # 0.5 m/s^2 / 9.80665 = 0.05099 g
         "all-collapse",
         lambda: rj.fragility(_ida_dataset(collapse_from=(0, 0, 0))),
-        r"every valid run collapsed",
+        r"every valid run collapsed down to pga = 0\.05099 g \(0\.5 m/s\^2\)",
         r"smaller scale",
+    ),
+    _case(
+        # one record: collapses from 2 m/s^2 (0.2039 g), survivals up to 1.5 m/s^2 (0.153 g)
+        "separated",
+        lambda: rj.fragility(_ida_dataset(collapse_from=(3,))),
+        r"from pga = 0\.2039 g \(2 m/s\^2\)\).*up to pga = 0\.153 g \(1\.5 m/s\^2\)",
+        r"overlap",
     ),
 ]
 
@@ -994,14 +1016,30 @@ READER_CASES = [
     (
         "down.csv",
         "0 0\n-0.01 0.1\n-0.02 0\n",
-        {},
+        {"units": "g"},
         r"\bt\b.*'down'.*must increase",
         r"sort",
         None,
         "",
     ),
-    ("same.csv", "0 0\n0.01 0.1\n0.01 0\n", {}, r"\bt\b.*'same'.*must increase", r"sort", None, ""),
-    ("uneven.csv", "0 0\n0.01 0.1\n0.03 0\n", {}, r"\bt\b.*'uneven'", r"resample", None, ""),
+    (
+        "same.csv",
+        "0 0\n0.01 0.1\n0.01 0\n",
+        {"units": "g"},
+        r"\bt\b.*'same'.*must increase",
+        r"sort",
+        None,
+        "",
+    ),
+    (
+        "uneven.csv",
+        "0 0\n0.01 0.1\n0.03 0\n",
+        {"units": "g"},
+        r"\bt\b.*'uneven'",
+        r"resample",
+        None,
+        "",
+    ),
     ("text.csv", "0 0\n0.01 abc\n0.02 0\n", {}, r"text\.csv, line 2", r"abc", None, ""),
     ("nan.csv", "0 0\n0.01 nan\n", {}, r"nan\.csv, line 2", r"non-finite", None, ""),
     ("one_row.csv", "0 0\n", {}, r"one_row\.csv", r"at least 2", None, ""),
@@ -1009,14 +1047,80 @@ READER_CASES = [
     ("header_only.csv", "t,a\n", {}, r"header_only\.csv", r"at least 2", None, ""),
     ("three.csv", "0 0 1\n0.01 0 1\n", {}, r"three\.csv, line 1", r"delimiter=", None, ""),
     ("units.csv", "0 0\n0.01 1\n", {"units": "mg"}, r"\bunits\b", r"cm/s2", None, ""),
+    (
+        "time_units.csv",
+        "0 0\n0.01 1\n",
+        {"time_units": "sec"},
+        r"\btime_units\b",
+        r"'ms'",
+        None,
+        "",
+    ),
     ("no_dt.csv", "0\n1\n", {"time_column": False}, r"\bdt\b", r"dt=", None, ""),
     ("both.csv", "0 0\n0.01 1\n", {"dt": 0.01}, r"\bdt\b", r"time_column=False", None, ""),
     (
         "cm_as_g.csv",
         "0 0\n0.01 294\n0.02 -150\n",
-        {},
+        {"units": "g"},
         r"\bunits\b",
         r"units='cm/s2'",
+        None,
+        "",
+    ),
+    # a file in m/s^2 (an OpenSees recorder of an SI model) is not read as g without a word
+    ("si.out", "0.01 0.5\n0.02 -0.3\n", {}, r"si\.out.*units", r"units='m/s2'", None, ""),
+    (
+        "no_unit.csv",
+        "t,acc\n0 0.5\n0.01 -0.3\n",
+        {},
+        r"no_unit\.csv.*'acc'",
+        r"units='m/s2'.*'acc \[m/s2\]'",
+        None,
+        "",
+    ),
+    (
+        "header_m_s2.csv",
+        "t [s],acc [m/s2]\n0,0.5\n0.01,-0.3\n",
+        {"units": "g"},
+        r"units='g'.*acc \[m/s2\]",
+        r"Drop units=",
+        None,
+        "",
+    ),
+    (
+        "time_ms.csv",
+        "0 0\n10 0.1\n20 0\n",
+        {"units": "g"},
+        r"time_ms\.csv.*time column",
+        r"time_units='ms'",
+        None,
+        "",
+    ),
+    (
+        "time_ms_header.csv",
+        "t [ms],a [g]\n0,0\n10,0.1\n",
+        {"time_units": "s"},
+        r"time_units='s'.*header",
+        r"Drop time_units=",
+        None,
+        "",
+    ),
+    (
+        "decimal_comma.csv",
+        "0,00;0,1\n0,01;0,2\n",
+        {"units": "g"},
+        r"decimal_comma\.csv, line 1: '0,00'",
+        r"decimal=','",
+        None,
+        "",
+    ),
+    ("decimal.csv", "0 0\n0.01 1\n", {"decimal": ";"}, r"\bdecimal\b", r'"\." or ","', None, ""),
+    (
+        "velocity.csv",
+        "t [s],v [m/s]\n0,0\n0.01,0.1\n",
+        {"units": "m/s2"},
+        r"velocity.csv.*'v \[m/s\]'",
+        r"column=",
         None,
         "",
     ),
@@ -1316,6 +1420,44 @@ CLI_CASES = [
     (["demo", "--n-beta", "1", "--out", "{tmp}/d"], r"--n-beta", r">= 2", None, ""),
     (["demo", "--b", "nan", "--out", "{tmp}/d"], r"\bb\b", r"b=0\.25", None, ""),
     (["demo", "--out", "{at2}"], r"--out", r"folder", None, ""),
+    (["demo", "--out", "{at2}/sub"], r"--out", r"folder you can write", None, ""),
+    (
+        ["ida", "--records", "{at2}", "--scales", "0.5,,1", "--out", "{tmp}/x.nc"],
+        r"--scales '0\.5,,1'.*empty item",
+        r"e\.g\. --scales",
+        None,
+        "",
+    ),
+    (
+        ["ida", "--records", "{at2}", "--scales", "0.5,1,", "--out", "{tmp}/x.nc"],
+        r"--scales.*empty item",
+        r"e\.g\. --scales",
+        None,
+        "",
+    ),
+    (
+        # a block wider than tall: Eq. 2 gives e_H = -0.2, no restitution coefficient
+        ["ida", "--records", "{at2}", "--b", "1", "--h", "0.5", "--model", "housner"]
+        + ["--out", "{tmp}/x.nc"],
+        r"e_H \(Eq\. 2\) = -0\.2",
+        r"--e 0\.9",
+        None,
+        "",
+    ),
+    (
+        ["ida", "--records", "{at2}", "--model", "housner", "--e", "-0.5", "--out", "{tmp}/x.nc"],
+        r"--e",
+        r"\(0, 1\]",
+        None,
+        "",
+    ),
+    (
+        ["ida", "--records", "{at2}", "--out", "{tmp}/x.h5"],
+        r"--out .*x\.h5",
+        r"ending in \.nc",
+        None,
+        "",
+    ),
 ]
 
 

@@ -139,3 +139,13 @@ def test_unwritable_out_fails_before_the_fit(tmp_path):
     rc, stdout, stderr = run_cli(["calibrate", "--b", 0.25, "--h", 3, "--out", blocker / "sub"])
     assert rc == 2 and "--out: cannot write into" in stderr, stderr
     assert "beta =" not in stdout
+
+
+def test_every_output_is_checked_before_the_fit(tmp_path):
+    """A folder where calibration.json goes stops the command before the fit, not after."""
+    out = tmp_path / "c"
+    (out / "calibration.json").mkdir(parents=True)
+    rc, stdout, stderr = run_cli(["calibrate", "--b", 0.25, "--h", 3, "--out", out])
+    assert rc == 2 and stderr.count("\n") == 1, stderr
+    assert "calibration.json is a folder, where the command writes a file" in stderr, stderr
+    assert "beta =" not in stdout

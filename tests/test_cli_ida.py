@@ -206,3 +206,63 @@ def test_unwritable_out_fails_before_any_run(tmp_path, at2_files):
     rc, stdout, stderr = _run(argv)
     assert rc == 2 and "--out: cannot write into" in stderr, stderr
     assert "runs ->" not in stdout  # the run summary printed before computing never came
+
+
+def test_every_output_is_checked_before_any_run(tmp_path, at2_files):
+    """Not only the NetCDF's folder: a folder where a side file (the figure, the table, the
+    summary) goes stops the command before it runs."""
+    for side in ("ida.csv", "ida_curves.png", "ida_fragility.png", "ida_fragility.json"):
+        folder = tmp_path / side
+        folder.mkdir()
+        argv = ["ida", "--records", at2_files[0], "--scales", "0.5", "--out", tmp_path / "ida.nc"]
+        rc, stdout, stderr = _run(argv)
+        assert rc == 2 and stderr.count("\n") == 1, stderr
+        assert f"--out: {folder} is a folder, where the command writes a file" in stderr, stderr
+        assert "runs ->" not in stdout and not (tmp_path / "ida.nc").exists()
+        folder.rmdir()
+
+
+def test_out_without_suffix_gets_nc(tmp_path, at2_files):
+    """`--out results` writes results.nc (and says so), beside it results.csv and the rest."""
+    argv = ["ida", "--records", at2_files[0], "--model", "housner", "--e", 0.9]
+    argv += ["--scales", "0.5", "--tail", 0.5, "--out", tmp_path / "results"]
+    rc, stdout, stderr = _run(argv)
+    assert rc == 0, stderr
+    assert f"-> {tmp_path / 'results.nc'}" in stdout
+    with xr.open_dataset(tmp_path / "results.nc", engine="h5netcdf") as ds:
+        assert ds.sizes == {"record": 1, "scale": 1}
+    assert (tmp_path / "results.csv").exists() and not (tmp_path / "results").exists()
+
+
+def test_all_runs_failed_exits_1_with_one_error_line(tmp_path, at2_files, monkeypatch):
+    """Runs that all fail (status != 0) are no result: exit status 1 and one `error:` line
+    naming the status, the files still written for inspection. The failure is forced by
+    marking every run of a real IDA as failed (status 1, non-finite state)."""
+    ida_module = importlib.import_module("rockjax.ida")  # rockjax.ida is the function
+    real = ida_module.ida
+
+    def all_failed(*args, **kwargs):
+        ds = real(*args, **kwargs)
+        return ds.assign(status=ds["status"] * 0 + 1)
+
+    monkeypatch.setattr(ida_module, "ida", all_failed)
+    argv = ["ida", "--records", *at2_files, "--model", "housner", "--e", 0.9]
+    argv += ["--scales", "0.5,1", "--tail", 0.5, "--out", tmp_path / "x.nc"]
+    rc, stdout, stderr = _run(argv)
+    assert rc == 1, stderr
+    assert stderr.startswith("error: all 4 runs failed (status 1: ") and stderr.count("\n") == 1
+    assert (tmp_path / "x.nc").exists()
+
+
+def test_write_failure_is_one_error_line(tmp_path, at2_files, monkeypatch):
+    """A write that fails after the checks (a full disk) is one `error:` line, exit 2, not a
+    traceback."""
+
+    def disk_full(self, path, *args, **kwargs):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", disk_full)
+    argv = ["ida", "--records", at2_files[0], "--model", "housner", "--e", 0.9]
+    argv += ["--scales", "0.5", "--tail", 0.5, "--out", tmp_path / "x.nc"]
+    rc, _, stderr = _run(argv)
+    assert rc == 2 and stderr == f"error: No space left on device: {tmp_path / 'x.nc'}\n", stderr

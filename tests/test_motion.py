@@ -32,6 +32,20 @@ def test_scaled():
     assert np.isclose(float(gm.scaled(2.5).pga), 2.5)
 
 
+def test_lists_of_numbers_are_records():
+    """`ag=[...]` (a list, ints or a tuple) is stored as a float64 array: `.scaled(2.5)` scales
+    every sample instead of failing on `list * float` (a TypeError naming neither ag nor its
+    unit)."""
+    gm = rj.GroundMotion(ag=[0.0, 1.0, -2.0], dt=0.01, ag_v=(0, 1, 0))
+    assert isinstance(gm.ag, np.ndarray) and gm.ag.dtype == np.float64
+    np.testing.assert_array_equal(gm.scaled(2.5).ag, [0.0, 2.5, -5.0])
+    np.testing.assert_array_equal(gm.scaled(2.5).ag_v, [0.0, 2.5, 0.0])
+    # linear interpolation at the midpoints: exact up to round-off of the sample times
+    np.testing.assert_allclose(gm.resampled(0.005).ag, [0.0, 0.5, 1.0, -0.5, -2.0], atol=1e-15)
+    with pytest.raises(ValueError, match=r"ag must be a real number in m/s\^2"):
+        rj.GroundMotion(ag=["0", "1"], dt=0.01)  # text is refused, not converted
+
+
 def test_bad_records_are_refused():
     with pytest.raises(ValueError, match="non-finite samples"):
         rj.GroundMotion(ag=np.array([0.0, np.nan, 1.0]), dt=0.01)

@@ -123,6 +123,16 @@ def test_ground_motion_units():
     assert "m/s" in ax.get_ylabel()
 
 
+def test_namespaces_list_no_imported_modules():
+    """`dir(rockjax)` and `dir(rj.plot)` (tab completion) list rockjax's own names, not the
+    modules they import."""
+    imported = {"np", "os", "sys", "jax", "re", "warnings", "math", "jnp"}
+    assert not imported & set(dir(rj)), sorted(imported & set(dir(rj)))
+    assert not imported & set(dir(rj.plot))
+    assert set(dir(rj.plot)) == set(rj.plot.__all__)
+    assert all(callable(getattr(rj.plot, name)) for name in rj.plot.__all__)
+
+
 def test_import_rockjax_does_not_import_matplotlib():
     code = "import sys, rockjax, rockjax.plot, rockjax.cli; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

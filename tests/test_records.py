@@ -318,10 +318,14 @@ def test_read_csv_two_columns_with_header(tmp_path):
     )
     path = tmp_path / "rec.csv"
     path.write_text(text)
-    gm = records.read_csv(path)
+    # `acc_g` states no unit (a_g is the ground acceleration's symbol): the units must be given
+    with pytest.raises(ValueError, match=r"units of the acceleration column 1 \('acc_g'\) are not"):
+        records.read_csv(path)
+    gm = records.read_csv(path, units="g")
     assert gm.n == 50 and math.isclose(gm.dt, 0.01, rel_tol=1e-12) and gm.name == "rec"
     np.testing.assert_allclose(gm.ag, a * G, rtol=1e-15)
     assert gm.metadata["header"] == "time_s,acc_g" and gm.metadata["t_start"] == "0.25"
+    assert gm.metadata["units"] == "g" and gm.metadata["units_from"] == "units="
     gm = records.read_csv(path, units="m/s2", name="x")
     np.testing.assert_allclose(gm.ag, a, rtol=1e-15)
     assert gm.name == "x"
@@ -352,7 +356,7 @@ def test_read_csv_errors_name_the_line(tmp_path):
         records.read_csv(path)
     path.write_text("0.0 1.0\n0.01 2.0\n0.03 0.0\n")
     with pytest.raises(ValueError, match="not uniformly sampled"):
-        records.read_csv(path)
+        records.read_csv(path, units="m/s2")
     path.write_text("0.0|1.0\n0.01|2.0\n")
     np.testing.assert_allclose(records.read_csv(path, delimiter="|", units="m/s2").ag, [1.0, 2.0])
 
@@ -527,12 +531,20 @@ def test_read_csv_refuses_what_it_cannot_read(tmp_path):
         ("Node 3 DOF 1\n0 0\n0.01 1\n", {}, r"line 1: 'Node' is not a number.*header=True"),
         ("0,,1\n0.01,2,3\n", {}, r"line 1: field 1 is empty"),
         ("0 0\n0.01 1 2\n", {}, r"line 2: 3 values, expected 2 as on line 1"),
-        ("0;0,1\n0,01;0,2\n", {}, r"line 1: '0,1' is not a number.*[Dd]ecimal commas"),
+        ("0;0,1\n0,01;0,2\n", {}, r"line 1: '0,1' is not a number.*decimal comma.*decimal=','"),
         ("0.1\n0.2\n", {}, r"line 1: 1 value, expected 2.*time_column=False and dt="),
-        ("0 0\n0.01 1\n0.005 3\n", {}, r"line 3: .*must increase.*follows t = 0\.01 s on line 2"),
-        ("0 0\n0.01 294\n", {}, r"peaks at 294 g read with units='g'.*units='cm/s2'"),
+        (
+            "0 0\n0.01 1\n0.005 3\n",
+            {"units": "m/s2"},
+            r"line 3: .*must increase.*follows t = 0\.01 s on line 2",
+        ),
+        ("0 0\n0.01 294\n", {"units": "g"}, r"peaks at 294 g read with units='g'.*units='cm/s2'"),
         ("0 0\n0.01 1\n", {"column": True}, r"column must be a 0-based column index"),
-        ("0 0\n0.01 1\n", {"resample": 0.5}, r"resample=0\.5 s is longer than the record"),
+        (
+            "0 0\n0.01 1\n",
+            {"resample": 0.5, "units": "g"},
+            r"resample=0\.5 s is longer than the record",
+        ),
     ]
     for text, kw, message in cases:
         path.write_text(text)
@@ -589,3 +601,114 @@ def test_read_csv_variable_step_says_how_and_resamples(tmp_path):
     bare.write_text("0.0\n1.0\n2.0\n")
     gm = records.read_csv(bare, time_column=False, dt=0.01, resample=0.005, units="m/s2")
     np.testing.assert_allclose(gm.ag, [0.0, 0.5, 1.0, 1.5, 2.0], rtol=0, atol=1e-15)
+
+
+# ------------------------------------------------------------------ CSV: units, stated or refused
+# Factors to m/s^2 written out here, not read from records.CSV_UNITS: 1 gal = 1 cm/s^2 = 0.01
+# m/s^2, 1 in = 0.0254 m (exact by definition), g = 9.80665 m/s^2 (standard gravity).
+HEADER_UNITS = [
+    ("acc [m/s2]", 1.0),
+    ("acc [m/s^2]", 1.0),
+    ("acc (m/s**2)", 1.0),
+    ("acc [m/sec/sec]", 1.0),
+    ("acc [m s-2]", 1.0),
+    ("acc [m·s⁻²]", 1.0),
+    ("acc [m/s²]", 1.0),
+    ("accel (g)", 9.80665),
+    ("ag [G]", 9.80665),
+    ("a (cm/s2)", 0.01),
+    ("a [gal]", 0.01),
+    ("a [cm/sec^2]", 0.01),
+    ("a [mm/s2]", 0.001),
+    ("a [in/s2]", 0.0254),
+]
+
+
+@pytest.mark.parametrize(("name", "factor"), HEADER_UNITS, ids=[n for n, _ in HEADER_UNITS])
+def test_read_csv_takes_the_unit_from_the_header(tmp_path, name, factor):
+    path = tmp_path / "rec.csv"
+    path.write_text(f"t [s],{name}\n0,0.5\n0.01,-0.25\n0.02,0\n", encoding="utf-8")
+    gm = records.read_csv(path)
+    np.testing.assert_allclose(gm.ag, np.array([0.5, -0.25, 0.0]) * factor, rtol=1e-15)
+    assert gm.metadata["units_from"] == "header"
+    # the same unit passed again is no contradiction
+    again = records.read_csv(path, units=gm.metadata["units"])
+    np.testing.assert_array_equal(again.ag, gm.ag)
+
+
+def test_read_csv_refuses_missing_or_contradicting_units(tmp_path):
+    path = tmp_path / "rec.csv"
+    # an OpenSees recorder file: no header, so no unit
+    path.write_text("0.01 0.5\n0.02 -0.25\n")
+    with pytest.raises(
+        ValueError,
+        match=r"rec\.csv: the units .* not stated: the file has no "
+        r"header.*units='m/s2' \(an OpenSees model in N, m, s\)",
+    ):
+        records.read_csv(path)
+    # a header in m/s^2 read as g would be 9.81 times too strong
+    path.write_text("t [s],acc [m/s2]\n0,0.5\n0.01,-0.25\n")
+    with pytest.raises(ValueError, match=r"units='g' contradicts the header.*'m/s2'.*Drop units="):
+        records.read_csv(path, units="g")
+    # an unknown unit in the header is named, with the accepted ones
+    path.write_text("t,acc [ft/s2]\n0,0.5\n0.01,-0.25\n")
+    with pytest.raises(ValueError, match=r"header's unit 'ft/s2' is not one read_csv reads"):
+        records.read_csv(path)
+    # ... and passing the units settles it (the header's text is no known unit)
+    np.testing.assert_allclose(records.read_csv(path, units="m/s2").ag, [0.5, -0.25])
+    # a velocity or displacement column is no acceleration, whatever units= says
+    for col, kind in (("vel [m/s]", "velocity"), ("disp (cm)", "displacement")):
+        path.write_text(f"t,{col}\n0,0.5\n0.01,-0.25\n")
+        with pytest.raises(ValueError, match=rf"holds a {kind} by its header.*column="):
+            records.read_csv(path, units="m/s2")
+    # a header in g with values in cm/s^2: the plausibility limit says to correct the header
+    path.write_text("t [s],acc [g]\n0,0\n0.01,294\n")
+    with pytest.raises(
+        ValueError,
+        match=r"peaks at 294 g read with the header's unit \(g\).*"
+        r"Correct the unit in the header \(cm/s2 or mm/s2\)",
+    ):
+        records.read_csv(path)
+
+
+def test_read_csv_times_in_milliseconds(tmp_path):
+    """Times in ms: converted where the header or time_units= says so, refused where a step
+    longer than MAX_PLAUSIBLE_STEP would be read as seconds."""
+    path = tmp_path / "ms.csv"
+    rows = "".join(f"{5 * k},{a}\n" for k, a in enumerate((0.0, 0.1, -0.2, 0.05)))
+    path.write_text(rows)
+    with pytest.raises(ValueError, match=r"steps by 5 \(median\).*milliseconds.*time_units='ms'"):
+        records.read_csv(path, units="g")
+    gm = records.read_csv(path, units="g", time_units="ms")
+    assert gm.dt == 0.005 and gm.n == 4 and "ms" in gm.metadata["time_units"]
+    # a step of 5 s is taken when it is said to be one
+    assert records.read_csv(path, units="g", time_units="s").dt == 5.0
+    for head in ("t [ms]", "time (ms)", "time_ms", "Time (msec)"):
+        path.write_text(f"{head},a [g]\n" + rows)
+        gm = records.read_csv(path)
+        assert gm.dt == 0.005, head
+        with pytest.raises(ValueError, match=r"time_units='s' contradicts the header"):
+            records.read_csv(path, time_units="s")
+    # a header in seconds: the plausibility rule is not needed, the step is what it says
+    path.write_text("t [s],a [g]\n" + rows)
+    assert records.read_csv(path).dt == 5.0
+    with pytest.raises(ValueError, match=r"time_units='ms' was given but time_column=False"):
+        records.read_csv(path, time_column=False, dt=0.01, time_units="ms", units="g")
+
+
+def test_read_csv_decimal_commas(tmp_path):
+    """A spreadsheet in a European locale: decimal commas, semicolons between the columns."""
+    path = tmp_path / "eu.csv"
+    path.write_text("t [s];a [m/s2]\n0,00;0,5\n0,01;-1,25E-1\n0,02;0\n")
+    with pytest.raises(ValueError, match=r"line 2: '0,00' is not a number.*decimal=','"):
+        records.read_csv(path)
+    gm = records.read_csv(path, decimal=",")
+    np.testing.assert_array_equal(np.asarray(gm.ag), [0.5, -0.125, 0.0])
+    assert gm.dt == 0.01
+    # blanks between the columns too
+    path.write_text("0,00 0,5\n0,01 -0,25\n")
+    np.testing.assert_array_equal(
+        records.read_csv(path, decimal=",", units="m/s2").ag, [0.5, -0.25]
+    )
+    with pytest.raises(ValueError, match=r'delimiter=";"'):
+        records.read_csv(path, decimal=",", delimiter=",", units="m/s2")
