@@ -157,6 +157,11 @@ REST_HORIZON = 8
 """Rest rule: twice the chatter's Zeno time must fit in this many record intervals (the rule
 checks the forcing at every sample inside; a longer chatter is resolved impact by impact)."""
 
+HEEL_GAP = REST_HOP
+"""A moving wall behind the base by at most this fraction of ``eta`` [-] does not count as
+room to rock on the heel (``extras["t_heel"]`` of ``simulate_housner``): a heel rotation that
+small is the motion the rest rule gives up (``REST_HOP``)."""
+
 _N_BISECT = 6  # brackets the Hermite root to 1/64 of the step before Newton polishes it
 _N_NEWTON = 3  # from within 1/128, three Newton steps reach ~1e-8 of the step even when sharp
 _TINY = 1e-30  # guards divisions in masked branches so their (unused) gradients stay finite
@@ -1274,6 +1279,60 @@ def _on_the_wall(ys: _Series, y: _State, record: _Record, n_out):
     return ys, eqx.tree_at(lambda z: z.theta_max, y, jnp.maximum(y.theta_max, top))
 
 
+def _wall_stop(theta_w, rate):
+    """The one-sided block's stop [rad, rad/s] at the samples: the wall ``theta_w`` where it
+    stands in front of the base, else the base itself, ``theta = 0`` at rest (docs/three_branch.md,
+    "Moving return walls"): ``max(theta_w, 0)``, with the wall's rate where it is the stop (and
+    where it leaves the base forward). A wall that has receded behind the base leaves the block
+    standing on its base, where it lifts at the fixed wall's threshold, instead of following
+    the wall down on its toe. The solver's cubic between samples then fits the stop's samples:
+    where the wall passes the base inside an interval it bends over that interval."""
+    ahead = (theta_w > 0) | ((theta_w == 0) & (rate > 0))
+    return jnp.maximum(theta_w, 0.0), _where(ahead, rate, 0.0)
+
+
+def _heel_time(ys: _Series, wall, record: _Record, params: _Params, n_out):
+    """The first sample [s] at which the rigid block, its wall behind its base by more than
+    ``HEEL_GAP eta``, would rock on its heel, which the one-sided model does not (its toe is
+    its only pivot): ``inf`` if never. Three ways, read from the saved samples:
+
+    * it lands on its base (the last impact of the interval ending at the sample, with the
+      wall behind the base at that time): the block would go on onto its heel;
+    * it stands on its base with the ground acceleration beyond the inward uplift threshold
+      (``a_g > lambda_up g_eff``);
+    * it rests on its stop at two consecutive samples between which the wall passes the
+      base, with a rate whose hop ``rate^2 / (2 p^2 sin eta)`` exceeds ``REST_HOP eta`` (the
+      rest rule's second clause): the landing on the base of a block that rode on the wall
+      (wall receding from in front of the base) or the wall's blow on a block standing on its
+      base (wall advancing) would throw the block; the model lets it land on its base, or
+      ride on the wall, without a rebound.
+
+    ``wall``: the wall's rotation and rate at the samples [rad, rad/s] (not the stop)."""
+    theta_w, rate = (jax.lax.stop_gradient(w) for w in wall)
+    ys = jax.tree.map(jax.lax.stop_gradient, ys)
+    n = theta_w.shape[0]
+    i = jnp.arange(n)
+    gap = HEEL_GAP * jax.lax.stop_gradient(params.eta)
+    walls = _Record(ag=record.ag, ag_v=None, dt=record.dt, wall_theta=theta_w, wall_rate=rate)
+    previous = jnp.concatenate([ys.n_impacts[:1], ys.n_impacts[:-1]])
+    t_impact = jnp.maximum(ys.t_last_impact, 0.0)  # (-inf before the first impact)
+    landing = (ys.n_impacts > previous) & (walls.wall(t_impact)[0] < -gap)
+    resting = ys.s == 0
+    a_g, g_eff = record.sample(i)
+    lam_up = jax.lax.stop_gradient(params.lam_up)
+    inward = resting & (theta_w < -gap) & (a_g > lam_up * g_eff)
+    both = resting & jnp.concatenate([resting[:1], resting[:-1]])
+    theta_a, rate_a = (jnp.concatenate([w[:1], w[:-1]]) for w in (theta_w, rate))
+    # from the wall in front of the base (the block rode on it) to behind it, or back
+    passes = ((theta_a > 0.0) & (theta_w < -gap)) | ((theta_a < -gap) & (theta_w >= 0.0))
+    # the wall's rate where it passes the base (both linear between the samples)
+    frac = _clip(theta_a / _safe(theta_a - theta_w), 0.0, 1.0)
+    rate_0 = rate_a + frac * (rate - rate_a)
+    thrown = both & passes & (rate_0 * rate_0 > jax.lax.stop_gradient(params.w2_tiny))
+    heel = (landing | inward | thrown) & (i < n_out)
+    return jnp.min(jnp.where(heel, i * record.dt, jnp.inf))
+
+
 def _entangle(tree, others=()):
     """``tree`` with a zero added to each float leaf that depends on every float leaf of
     ``tree`` and ``others``: the values are unchanged, and so are the derivatives.
@@ -1686,17 +1745,18 @@ def _simulate(
     params = _params(p, eta, e, law)
     if wall is None:
         record = _Record(ag=ag, ag_v=ag_v, dt=dt_out)
-    else:
-        record = _Record(ag=ag, ag_v=ag_v, dt=dt_out, wall_theta=wall[0], wall_rate=wall[1])
+    else:  # the block's stop: the wall, or its base where the wall has receded behind it
+        stop_theta, stop_rate = _wall_stop(*wall)
+        record = _Record(ag=ag, ag_v=ag_v, dt=dt_out, wall_theta=stop_theta, wall_rate=stop_rate)
         record = record.with_wall_steps(params, n_sub)
     moving = (theta0 != 0) | (theta_dot0 != 0)
     if one_sided:
         s0 = jnp.where(moving, 1.0, 0.0)
     else:
         s0 = jnp.where(theta0 != 0, jnp.sign(theta0), jnp.sign(theta_dot0))
-    if wall is not None:  # at rest against the wall: on it, with its rate
-        theta0 = jnp.where(moving, theta0, wall[0][0])
-        theta_dot0 = jnp.where(moving, theta_dot0, wall[1][0])
+    if wall is not None:  # at rest against its stop: on it, with its rate
+        theta0 = jnp.where(moving, theta0, record.wall_theta[0])
+        theta_dot0 = jnp.where(moving, theta_dot0, record.wall_rate[0])
     zero = jnp.zeros_like(theta0)
     y0 = _State(
         theta=theta0,
@@ -1777,7 +1837,10 @@ def _simulate(
             "pivot": ys.s,
             "n_unresolved": final.n_unresolved.astype(jnp.int32),
             "dt": dt_step,
-        },
+        }
+        | (
+            {} if wall is None else {"t_heel": not_run(_heel_time(ys, wall, record, params, n_out))}
+        ),
     )
     return resp, fault
 
