@@ -28,8 +28,11 @@ and the continuation past a crossing is smooth, which makes the crossing time a 
   ``rockjax.ThreeBranchLaw`` (uplift threshold, rest rule and overturning rotation with it);
   its kinks are events like impacts, so steps are cut there.
 * Moving return wall (``wall_motion=``, one-sided; docs/three_branch.md, "Moving return
-  walls"): the stop is at ``theta_w(t) = u_top / h``, impacts restitute the velocity relative
-  to it, and a block at rest rides on it until it would accelerate away faster than the wall.
+  walls"): the stop is at ``max(theta_w(t), 0)``, ``theta_w = u_top / h`` (the wall, or the
+  base where the wall has receded behind it), impacts restitute the velocity relative to it,
+  and a block at rest rides on it until it would accelerate away faster than it. Where the
+  rigid block would rock on its heel (room behind the base) the model leaves its validity:
+  ``extras["t_heel"]`` reports when.
 
 Design. The whole record is one loop of passes (``_run``, an ``equinox.internal.while_loop``
 of the kind the adjoint can differentiate: ``"checkpointed"`` for ``grad``, ``"lax"`` under
@@ -1458,8 +1461,10 @@ def simulate_housner(
             the block's height ``h``, relative to the base, positive toward the facade), or
             anything ``rockjax.building.wall_top_motion`` takes (a ``ShearBuilding``, a
             ``GroundMotion`` of the wall's absolute acceleration, or ``(height, GroundMotion)``
-            pairs). The wall rotates by ``theta_w = u_top / h``; impacts restitute the velocity
-            relative to it; at rest the block rides on it. Needs ``motion``.
+            pairs). The wall rotates by ``theta_w = u_top / h``; the block's stop is the wall,
+            or its base where the wall has receded behind it (``theta >= max(theta_w, 0)``);
+            impacts restitute the velocity relative to the stop; at rest the block rides on
+            it. The block rocks on its toe only: see ``extras["t_heel"]``. Needs ``motion``.
 
     Returns:
         A :class:`rockjax.Response` at the record samples (or every ``dt``). ``energy`` is
@@ -1469,7 +1474,11 @@ def simulate_housner(
         latest impact up to each sample, exact from the root-find; ``-inf`` before the first),
         ``"pivot"`` (``s``: +1, -1, 0 at rest), ``"n_unresolved"`` (steps with more impacts
         than ``max_impacts_per_step``; nonzero only with ``throw=False``), ``"dt"`` (solver
-        step [s]).
+        step [s]); with ``wall_motion`` also ``"t_heel"`` [s]: the first sample at which the
+        rigid block, its wall receded behind its base, would rock on its heel (it lands on its
+        base, the ground throws it inward while it stands, or the wall passes the base under
+        it fast enough to throw it), ``inf`` if never. The history is the rigid block's up to
+        that time only (docs/three_branch.md, "Moving return walls").
 
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
