@@ -160,10 +160,13 @@ REST_HORIZON = 8
 """Rest rule: twice the chatter's Zeno time must fit in this many record intervals (the rule
 checks the forcing at every sample inside; a longer chatter is resolved impact by impact)."""
 
-HEEL_GAP = REST_HOP
-"""A moving wall behind the base by at most this fraction of ``eta`` [-] does not count as
-room to rock on the heel (``extras["t_heel"]`` of ``simulate_housner``): a heel rotation that
-small is the motion the rest rule gives up (``REST_HOP``)."""
+HEEL_TOL = 1e-3
+"""Heel motions of at most this fraction of ``eta`` [-] do not end the one-sided model's
+validity (``extras["t_heel"]`` of ``simulate_housner``): a wall behind the base by at most
+``HEEL_TOL eta`` (the heel's room, which bounds its rotation), and a wall passing the base
+under a resting block at a rate ``w`` whose hop ``w^2 / (2 p^2 sin eta)`` is at most
+``HEEL_TOL eta``. The cross-checks count a facade as lifted off its stop from the same
+``1e-3 eta`` (tests/test_wall_models.py)."""
 
 _N_BISECT = 6  # brackets the Hermite root to 1/64 of the step before Newton polishes it
 _N_NEWTON = 3  # from within 1/128, three Newton steps reach ~1e-8 of the step even when sharp
@@ -1296,7 +1299,7 @@ def _wall_stop(theta_w, rate):
 
 def _heel_time(ys: _Series, wall, record: _Record, params: _Params, n_out):
     """The first sample [s] at which the rigid block, its wall behind its base by more than
-    ``HEEL_GAP eta``, would rock on its heel, which the one-sided model does not (its toe is
+    ``HEEL_TOL eta``, would rock on its heel, which the one-sided model does not (its toe is
     its only pivot): ``inf`` if never. Three ways, read from the saved samples:
 
     * it lands on its base (the last impact of the interval ending at the sample, with the
@@ -1304,8 +1307,8 @@ def _heel_time(ys: _Series, wall, record: _Record, params: _Params, n_out):
     * it stands on its base with the ground acceleration beyond the inward uplift threshold
       (``a_g > lambda_up g_eff``);
     * it rests on its stop at two consecutive samples between which the wall passes the
-      base, with a rate whose hop ``rate^2 / (2 p^2 sin eta)`` exceeds ``REST_HOP eta`` (the
-      rest rule's second clause): the landing on the base of a block that rode on the wall
+      base, with a rate whose hop ``rate^2 / (2 p^2 sin eta)`` exceeds ``HEEL_TOL eta``: the
+      landing on the base of a block that rode on the wall
       (wall receding from in front of the base) or the wall's blow on a block standing on its
       base (wall advancing) would throw the block; the model lets it land on its base, or
       ride on the wall, without a rebound.
@@ -1315,7 +1318,8 @@ def _heel_time(ys: _Series, wall, record: _Record, params: _Params, n_out):
     ys = jax.tree.map(jax.lax.stop_gradient, ys)
     n = theta_w.shape[0]
     i = jnp.arange(n)
-    gap = HEEL_GAP * jax.lax.stop_gradient(params.eta)
+    gap = HEEL_TOL * jax.lax.stop_gradient(params.eta)
+    w2_hop = (HEEL_TOL / REST_HOP) * jax.lax.stop_gradient(params.w2_tiny)  # hop HEEL_TOL eta
     walls = _Record(ag=record.ag, ag_v=None, dt=record.dt, wall_theta=theta_w, wall_rate=rate)
     previous = jnp.concatenate([ys.n_impacts[:1], ys.n_impacts[:-1]])
     t_impact = jnp.maximum(ys.t_last_impact, 0.0)  # (-inf before the first impact)
@@ -1326,12 +1330,12 @@ def _heel_time(ys: _Series, wall, record: _Record, params: _Params, n_out):
     inward = resting & (theta_w < -gap) & (a_g > lam_up * g_eff)
     both = resting & jnp.concatenate([resting[:1], resting[:-1]])
     theta_a, rate_a = (jnp.concatenate([w[:1], w[:-1]]) for w in (theta_w, rate))
-    # from the wall in front of the base (the block rode on it) to behind it, or back
-    passes = ((theta_a > 0.0) & (theta_w < -gap)) | ((theta_a < -gap) & (theta_w >= 0.0))
+    # from in front of the base (the block rode on the wall) to behind it, or back
+    passes = ((theta_a > 0.0) & (theta_w <= 0.0)) | ((theta_a < 0.0) & (theta_w >= 0.0))
     # the wall's rate where it passes the base (both linear between the samples)
     frac = _clip(theta_a / _safe(theta_a - theta_w), 0.0, 1.0)
     rate_0 = rate_a + frac * (rate - rate_a)
-    thrown = both & passes & (rate_0 * rate_0 > jax.lax.stop_gradient(params.w2_tiny))
+    thrown = both & passes & (rate_0 * rate_0 > w2_hop)
     heel = (landing | inward | thrown) & (i < n_out)
     return jnp.min(jnp.where(heel, i * record.dt, jnp.inf))
 
