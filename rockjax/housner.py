@@ -427,8 +427,9 @@ class _Record(eqx.Module):
     ag: Array  # [m/s^2], one value per sample (padded by repeating the last one)
     ag_v: Array | None
     dt: Array  # sample spacing [s]: data, so records of any step share one compilation
-    # A moving return wall (one-sided; docs/three_branch.md, "Moving return walls"): its
-    # rotation theta_w = u_top / h [rad] and rate [rad/s] at the samples, or None.
+    # A moving return wall (one-sided; docs/three_branch.md, "Moving return walls"): the
+    # block's stop (_wall_stop: the wall's rotation theta_w = u_top / h, or the base where the
+    # wall has receded behind it) [rad] and its rate [rad/s] at the samples, or None.
     wall_theta: Array | None = None
     wall_rate: Array | None = None
     # With a moving wall, computed once per run (``with_wall_steps``): for every solver step,
@@ -1286,15 +1287,15 @@ def _on_the_wall(ys: _Series, y: _State, record: _Record, n_out):
 
 
 def _wall_stop(theta_w, rate):
-    """The one-sided block's stop [rad, rad/s] at the samples: the wall ``theta_w`` where it
-    stands in front of the base, else the base itself, ``theta = 0`` at rest (docs/three_branch.md,
-    "Moving return walls"): ``max(theta_w, 0)``, with the wall's rate where it is the stop (and
-    where it leaves the base forward). A wall that has receded behind the base leaves the block
-    standing on its base, where it lifts at the fixed wall's threshold, instead of following
-    the wall down on its toe. The solver's cubic between samples then fits the stop's samples:
-    where the wall passes the base inside an interval it bends over that interval."""
+    """The one-sided block's stop at the samples [rad, rad/s] (docs/three_branch.md, "Moving
+    return walls"): the wall where it stands in front of the base (or leaves it forward), else
+    the base itself at rest, i.e. ``max(theta_w, 0)`` with the wall's rate where the wall is
+    the stop and 0 elsewhere. A wall that has receded behind the base leaves the block standing
+    on its base, where it lifts at the fixed wall's threshold, instead of following the wall
+    down on its toe. The solver's cubic between samples fits the stop's samples: where the
+    wall passes the base inside a sample interval it bends over that interval."""
     ahead = (theta_w > 0) | ((theta_w == 0) & (rate > 0))
-    return jnp.maximum(theta_w, 0.0), _where(ahead, rate, 0.0)
+    return _where(ahead, theta_w, 0.0), _where(ahead, rate, 0.0)
 
 
 def _heel_time(ys: _Series, wall, record: _Record, params: _Params, n_out):
@@ -1308,10 +1309,9 @@ def _heel_time(ys: _Series, wall, record: _Record, params: _Params, n_out):
       (``a_g > lambda_up g_eff``);
     * it rests on its stop at two consecutive samples between which the wall passes the
       base, with a rate whose hop ``rate^2 / (2 p^2 sin eta)`` exceeds ``HEEL_TOL eta``: the
-      landing on the base of a block that rode on the wall
-      (wall receding from in front of the base) or the wall's blow on a block standing on its
-      base (wall advancing) would throw the block; the model lets it land on its base, or
-      ride on the wall, without a rebound.
+      landing on its base of a block that rode on the wall (receding) or the wall's blow on a
+      block standing on its base (advancing) would throw the block; the model lets it land on
+      its base, or ride on the wall, without a rebound.
 
     ``wall``: the wall's rotation and rate at the samples [rad, rad/s] (not the stop)."""
     theta_w, rate = (jax.lax.stop_gradient(w) for w in wall)
