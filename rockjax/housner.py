@@ -28,8 +28,11 @@ and the continuation past a crossing is smooth, which makes the crossing time a 
   ``rockjax.ThreeBranchLaw`` (uplift threshold, rest rule and overturning rotation with it);
   its kinks are events like impacts, so steps are cut there.
 * Moving return wall (``wall_motion=``, one-sided; docs/three_branch.md, "Moving return
-  walls"): the stop is at ``theta_w(t) = u_top / h``, impacts restitute the velocity relative
-  to it, and a block at rest rides on it until it would accelerate away faster than the wall.
+  walls"): the stop is at ``max(theta_w(t), 0)``, ``theta_w = u_top / h`` (the wall, or the
+  base where the wall has receded behind it), impacts restitute the velocity relative to it,
+  and a block at rest rides on it until it would accelerate away faster than it. Where the
+  rigid block would rock on its heel (room behind the base) the model leaves its validity:
+  ``extras["t_heel"]`` reports when.
 
 Design. The whole record is one loop of passes (``_run``, an ``equinox.internal.while_loop``
 of the kind the adjoint can differentiate: ``"checkpointed"`` for ``grad``, ``"lax"`` under
@@ -156,6 +159,14 @@ threshold that falls back within the step; see ``_uplift``)."""
 REST_HORIZON = 8
 """Rest rule: twice the chatter's Zeno time must fit in this many record intervals (the rule
 checks the forcing at every sample inside; a longer chatter is resolved impact by impact)."""
+
+HEEL_TOL = 1e-3
+"""Heel motions of at most this fraction of ``eta`` [-] do not end the one-sided model's
+validity (``extras["t_heel"]`` of ``simulate_housner``): a wall behind the base by at most
+``HEEL_TOL eta`` (the heel's room, which bounds its rotation), and a wall passing the base
+under a resting block at a rate ``w`` whose hop ``w^2 / (2 p^2 sin eta)`` is at most
+``HEEL_TOL eta``. The cross-checks count a facade as lifted off its stop from the same
+``1e-3 eta`` (tests/test_wall_models.py)."""
 
 _N_BISECT = 6  # brackets the Hermite root to 1/64 of the step before Newton polishes it
 _N_NEWTON = 3  # from within 1/128, three Newton steps reach ~1e-8 of the step even when sharp
@@ -416,8 +427,9 @@ class _Record(eqx.Module):
     ag: Array  # [m/s^2], one value per sample (padded by repeating the last one)
     ag_v: Array | None
     dt: Array  # sample spacing [s]: data, so records of any step share one compilation
-    # A moving return wall (one-sided; docs/three_branch.md, "Moving return walls"): its
-    # rotation theta_w = u_top / h [rad] and rate [rad/s] at the samples, or None.
+    # A moving return wall (one-sided; docs/three_branch.md, "Moving return walls"): the
+    # block's stop (_wall_stop: the wall's rotation theta_w = u_top / h, or the base where the
+    # wall has receded behind it) [rad] and its rate [rad/s] at the samples, or None.
     wall_theta: Array | None = None
     wall_rate: Array | None = None
     # With a moving wall, computed once per run (``with_wall_steps``): for every solver step,
@@ -1274,6 +1286,60 @@ def _on_the_wall(ys: _Series, y: _State, record: _Record, n_out):
     return ys, eqx.tree_at(lambda z: z.theta_max, y, jnp.maximum(y.theta_max, top))
 
 
+def _wall_stop(theta_w, rate):
+    """The one-sided block's stop at the samples [rad, rad/s] (docs/three_branch.md, "Moving
+    return walls"): the wall where it stands in front of the base (or leaves it forward), else
+    the base itself at rest, i.e. ``max(theta_w, 0)`` with the wall's rate where the wall is
+    the stop and 0 elsewhere. A wall that has receded behind the base leaves the block standing
+    on its base, where it lifts at the fixed wall's threshold, instead of following the wall
+    down on its toe. The solver's cubic between samples fits the stop's samples: where the
+    wall passes the base inside a sample interval it bends over that interval."""
+    ahead = (theta_w > 0) | ((theta_w == 0) & (rate > 0))
+    return _where(ahead, theta_w, 0.0), _where(ahead, rate, 0.0)
+
+
+def _heel_time(ys: _Series, wall, record: _Record, params: _Params, n_out):
+    """The first sample [s] at which the rigid block, its wall behind its base by more than
+    ``HEEL_TOL eta``, would rock on its heel, which the one-sided model does not (its toe is
+    its only pivot): ``inf`` if never. Three ways, read from the saved samples:
+
+    * it lands on its base (the last impact of the interval ending at the sample, with the
+      wall behind the base at that time): the block would go on onto its heel;
+    * it stands on its base with the ground acceleration beyond the inward uplift threshold
+      (``a_g > lambda_up g_eff``);
+    * it rests on its stop at two consecutive samples between which the wall passes the
+      base, with a rate whose hop ``rate^2 / (2 p^2 sin eta)`` exceeds ``HEEL_TOL eta``: the
+      landing on its base of a block that rode on the wall (receding) or the wall's blow on a
+      block standing on its base (advancing) would throw the block; the model lets it land on
+      its base, or ride on the wall, without a rebound.
+
+    ``wall``: the wall's rotation and rate at the samples [rad, rad/s] (not the stop)."""
+    theta_w, rate = (jax.lax.stop_gradient(w) for w in wall)
+    ys = jax.tree.map(jax.lax.stop_gradient, ys)
+    n = theta_w.shape[0]
+    i = jnp.arange(n)
+    gap = HEEL_TOL * jax.lax.stop_gradient(params.eta)
+    w2_hop = (HEEL_TOL / REST_HOP) * jax.lax.stop_gradient(params.w2_tiny)  # hop HEEL_TOL eta
+    walls = _Record(ag=record.ag, ag_v=None, dt=record.dt, wall_theta=theta_w, wall_rate=rate)
+    previous = jnp.concatenate([ys.n_impacts[:1], ys.n_impacts[:-1]])
+    t_impact = jnp.maximum(ys.t_last_impact, 0.0)  # (-inf before the first impact)
+    landing = (ys.n_impacts > previous) & (walls.wall(t_impact)[0] < -gap)
+    resting = ys.s == 0
+    a_g, g_eff = record.sample(i)
+    lam_up = jax.lax.stop_gradient(params.lam_up)
+    inward = resting & (theta_w < -gap) & (a_g > lam_up * g_eff)
+    both = resting & jnp.concatenate([resting[:1], resting[:-1]])
+    theta_a, rate_a = (jnp.concatenate([w[:1], w[:-1]]) for w in (theta_w, rate))
+    # from in front of the base (the block rode on the wall) to behind it, or back
+    passes = ((theta_a > 0.0) & (theta_w <= 0.0)) | ((theta_a < 0.0) & (theta_w >= 0.0))
+    # the wall's rate where it passes the base (both linear between the samples)
+    frac = _clip(theta_a / _safe(theta_a - theta_w), 0.0, 1.0)
+    rate_0 = rate_a + frac * (rate - rate_a)
+    thrown = both & passes & (rate_0 * rate_0 > w2_hop)
+    heel = (landing | inward | thrown) & (i < n_out)
+    return jnp.min(jnp.where(heel, i * record.dt, jnp.inf))
+
+
 def _entangle(tree, others=()):
     """``tree`` with a zero added to each float leaf that depends on every float leaf of
     ``tree`` and ``others``: the values are unchanged, and so are the derivatives.
@@ -1399,8 +1465,10 @@ def simulate_housner(
             the block's height ``h``, relative to the base, positive toward the facade), or
             anything ``rockjax.building.wall_top_motion`` takes (a ``ShearBuilding``, a
             ``GroundMotion`` of the wall's absolute acceleration, or ``(height, GroundMotion)``
-            pairs). The wall rotates by ``theta_w = u_top / h``; impacts restitute the velocity
-            relative to it; at rest the block rides on it. Needs ``motion``.
+            pairs). The wall rotates by ``theta_w = u_top / h``; the block's stop is the wall,
+            or its base where the wall has receded behind it (``theta >= max(theta_w, 0)``);
+            impacts restitute the velocity relative to the stop; at rest the block rides on
+            it. The block rocks on its toe only: see ``extras["t_heel"]``. Needs ``motion``.
 
     Returns:
         A :class:`rockjax.Response` at the record samples (or every ``dt``). ``energy`` is
@@ -1410,7 +1478,11 @@ def simulate_housner(
         latest impact up to each sample, exact from the root-find; ``-inf`` before the first),
         ``"pivot"`` (``s``: +1, -1, 0 at rest), ``"n_unresolved"`` (steps with more impacts
         than ``max_impacts_per_step``; nonzero only with ``throw=False``), ``"dt"`` (solver
-        step [s]).
+        step [s]); with ``wall_motion`` also ``"t_heel"`` [s]: the first sample at which the
+        rigid block, its wall receded behind its base, would rock on its heel (it lands on its
+        base, the ground throws it inward while it stands, or the wall passes the base under
+        it fast enough to throw it), ``inf`` if never. The history is the rigid block's up to
+        that time only (docs/three_branch.md, "Moving return walls").
 
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
@@ -1686,17 +1758,18 @@ def _simulate(
     params = _params(p, eta, e, law)
     if wall is None:
         record = _Record(ag=ag, ag_v=ag_v, dt=dt_out)
-    else:
-        record = _Record(ag=ag, ag_v=ag_v, dt=dt_out, wall_theta=wall[0], wall_rate=wall[1])
+    else:  # the block's stop: the wall, or its base where the wall has receded behind it
+        stop_theta, stop_rate = _wall_stop(*wall)
+        record = _Record(ag=ag, ag_v=ag_v, dt=dt_out, wall_theta=stop_theta, wall_rate=stop_rate)
         record = record.with_wall_steps(params, n_sub)
     moving = (theta0 != 0) | (theta_dot0 != 0)
     if one_sided:
         s0 = jnp.where(moving, 1.0, 0.0)
     else:
         s0 = jnp.where(theta0 != 0, jnp.sign(theta0), jnp.sign(theta_dot0))
-    if wall is not None:  # at rest against the wall: on it, with its rate
-        theta0 = jnp.where(moving, theta0, wall[0][0])
-        theta_dot0 = jnp.where(moving, theta_dot0, wall[1][0])
+    if wall is not None:  # at rest against its stop: on it, with its rate
+        theta0 = jnp.where(moving, theta0, record.wall_theta[0])
+        theta_dot0 = jnp.where(moving, theta_dot0, record.wall_rate[0])
     zero = jnp.zeros_like(theta0)
     y0 = _State(
         theta=theta0,
@@ -1777,7 +1850,10 @@ def _simulate(
             "pivot": ys.s,
             "n_unresolved": final.n_unresolved.astype(jnp.int32),
             "dt": dt_step,
-        },
+        }
+        | (
+            {} if wall is None else {"t_heel": not_run(_heel_time(ys, wall, record, params, n_out))}
+        ),
     )
     return resp, fault
 

@@ -35,6 +35,10 @@ Engineering demand parameters, per run:
   on, so the two EDPs above are then the values where the run stopped, just past ``eta``).
 * ``status``: 0 if the run is valid, else a code of ``rockjax.response.STATUS_MESSAGES``; a
   failed run has NaN EDPs and ``collapse = False`` and does not stop the batch.
+* ``t_heel`` (Housner with ``wall_motion`` only): ``extras["t_heel"]`` of the run [s], the
+  first time the rigid block, its return wall receded behind its base, would rock on its heel
+  (``inf``: never); the run is the rigid block's up to that time only (docs/three_branch.md,
+  "Moving return walls").
 * ``pga_scaled``: ``scale * pga`` [m/s^2], with ``pga`` the peak of the record as run.
 * ``im``: the intensity measure of the run, ``scale * IM(record)``, for ``im="pga"``
   (default; equal to ``pga_scaled``), ``"pgv"`` [m/s] or ``"sa(T)"`` (5 %-damped
@@ -609,6 +613,8 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
                 support, wall = support[:-2], support[-2:]
         out = _run_chunk(plan.block, ag, ag_v, rec_k, scale_k, wall, support, dt_rec=g.dt, **config)
         out = jax.device_get(out)
+        if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
+            grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
         for key in grids:
             grids[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
         bar.set_postfix_str(f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s", refresh=False)
@@ -633,6 +639,12 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
         "pga_scaled": (dims, pga_scaled, _attrs("scaled peak ground acceleration", "m/s^2")),
         "im": (dims, im_scaled, _attrs(f"{im.name}: scaled {im.long_name}", im.units)),
     }
+    if "t_heel" in grids:
+        data_vars["t_heel"] = (
+            dims,
+            grids["t_heel"],
+            _attrs("first time the rigid block would rock on its heel (inf: never)", "s"),
+        )
     if im.is_acceleration:
         data_vars["im_g"] = (dims, im_scaled / G, _attrs(f"{im.name}: scaled, in g", "g"))
     names = [r.name for r in records]
@@ -912,12 +924,13 @@ def _run_chunk(
             r = simulate_housner(block, motion, e=e, mode=mode, dt=dt_bound, throw=False, **extra)
             d_max = block.top_displacement(r.theta_max)
         ok = r.status == STATUS_OK
+        heel = {} if "t_heel" not in r.extras else {"t_heel": r.extras["t_heel"]}
         return {
             "max_d_over_b": jnp.where(ok, d_max / block.b, jnp.nan),
             "max_theta_over_eta": jnp.where(ok, r.theta_max / r.eta, jnp.nan),
             "collapse": r.overturned & ok,
             "status": r.status.astype(jnp.int32),
-        }
+        } | heel
 
     if model == "dem" or isinstance(block, Assembly):
         return jax.vmap(one)(rec_idx, scale)

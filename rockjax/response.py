@@ -77,7 +77,8 @@ class Response(eqx.Module):
         (impacts so far), ``"t_last_impact [s]"``, ``"pivot [-]"`` (+1 or -1). Contact forces
         and other per-contact series stay in ``extras``. ``df.attrs`` holds the run's scalars:
         ``model``, ``overturned``, ``status``, ``status_message``, ``theta_max [rad]``,
-        ``eta [rad]`` and ``b [m]``. Write it with ``df.to_csv(path)``.
+        ``eta [rad]`` and ``b [m]`` (and ``t_heel [s]`` for Housner with a moving wall: the
+        time its history stops being the rigid block's). Write it with ``df.to_csv(path)``.
 
         Returns:
             The ``pandas.DataFrame`` (pandas comes with xarray, a rockjax dependency).
@@ -127,6 +128,8 @@ class Response(eqx.Module):
                 "b [m]": float(np.asarray(self.b)),
             },
         )
+        if "t_heel" in self.extras:  # Housner with a moving wall: where its validity ends
+            df.attrs["t_heel [s]"] = float(np.asarray(self.extras["t_heel"]))
         return df
 
     @property

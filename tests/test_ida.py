@@ -390,6 +390,10 @@ def test_wall_motion_reaches_every_run():
             assert float(r.theta_max / r.eta) == pytest.approx(
                 float(ds.max_theta_over_eta[i, j]), rel=1e-9, abs=1e-12
             )
+            # the time the rigid block would rock on its heel: the run's, sample for sample
+            assert float(ds.t_heel[i, j]) == float(r.extras["t_heel"])
+    assert "t_heel" not in fixed
+    assert np.any(np.isfinite(ds.t_heel))  # the building's wall recedes behind the base
 
 
 @pytest.mark.parametrize(
