@@ -358,3 +358,26 @@ def test_assembly_pushover_peaks_at_the_limit_analysis():
     th = np.asarray(cap.theta_blocks)
     assert np.max(np.abs(th[:, 0])) < 0.02 * np.max(np.abs(th[:, 2]))
     assert np.max(np.abs(th[:, 2] - th[:, 1])) < 0.02 * np.max(np.abs(th[:, 2]))
+
+
+def test_restrained_three_block_pushover_peaks_at_the_limit_analysis():
+    """Reference: virtual work of the three-hinge mechanisms of three equal b x h blocks with
+    the top held, written out here: blocks 0 and 1 together about the ground toe A, block 2
+    about the hinge B at the heel of the upper bed joint (height 2h), its top face centre C
+    held. Per unit rotation of the lower pair B moves by (2h, b), so block 2 turns back by 2
+    (C does not move across); the centroids move by (h/2, b/2), (3h/2, b/2) and
+    (2h - h, b + 2 b/2) = (h, 2b): lambda = (b/2 + b/2 + 2b) / (h/2 + 3h/2 + h) = b / h.
+    The other pairs of hinges give more (rockjax.limit_analysis, tests/test_assembly_limit.py).
+    The DEM pushover peaks there; blocks 0 and 1 turn alike and block 2 back by twice as
+    much."""
+    from rockjax.assembly import Assembly
+
+    b, h = 0.23, 1.0
+    wall = Assembly.stack([rj.Block(b=b, h=h, E=ASM_E)] * 3, top="restrained")
+    lam0 = b / h
+    cap = _asm_pushover(wall)
+    assert float(cap.lambda_rigid) == pytest.approx(lam0, rel=1e-9)
+    lam = np.asarray(cap.load_multiplier)
+    assert abs(lam.max() / lam0 - 1) < ASM_PEAK_RTOL, lam.max() / lam0
+    th = np.asarray(cap.theta_blocks)[-1]
+    assert th[1] == pytest.approx(th[0], rel=0.05) and th[2] == pytest.approx(-2 * th[0], rel=0.05)
