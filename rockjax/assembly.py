@@ -303,7 +303,7 @@ class LimitAnalysis(eqx.Module):
 
     load_multiplier: Float[Array, ""]
     velocity: Float[Array, "block 3"]
-    phi_deg: float = eqx.field(static=True, default=PHI_DEG_LIMIT)
+    phi_deg: float = PHI_DEG_LIMIT
 
 
 def limit_analysis(assembly: Assembly, phi_deg: float = PHI_DEG_LIMIT) -> LimitAnalysis:
@@ -374,29 +374,25 @@ def limit_analysis(assembly: Assembly, phi_deg: float = PHI_DEG_LIMIT) -> LimitA
         col[3 * k : 3 * k + 3] = (fx, fy, (py - ys[k]) * fx - (px - xs[k]) * fy)
         return col
 
+    def joint(k, other, fx, fy, px, py):
+        """A joint's force: ``(fx, fy)`` on block ``k``, its reaction on ``other``."""
+        col = force(k, fx, fy, px, py)
+        return col - force(other, fx, fy, px, py) if other >= 0 else col
+
     for k, other, kind, ends in geo["joints"]:
         if kind == "head":  # smooth: a normal force along +x on block k at each end
             x_face = xs[k] - 0.5 * geo["b"][k]
             for y_end in ends:
-                col = force(k, 1.0, 0.0, x_face, y_end)
-                if other >= 0:
-                    col -= force(other, 1.0, 0.0, x_face, y_end)
-                cols.append(col)
+                cols.append(joint(k, other, 1.0, 0.0, x_face, y_end))
                 bounds.append((0.0, None))
             continue
         y_face = ys[k] - 0.5 * hs[k]
         normals = []
         for x_end in ends:
-            col = force(k, 0.0, 1.0, x_end, y_face)
-            if other >= 0:
-                col -= force(other, 0.0, 1.0, x_end, y_face)
-            cols.append(col)
+            cols.append(joint(k, other, 0.0, 1.0, x_end, y_face))
             bounds.append((0.0, None))
             normals.append(len(cols))
-        col = force(k, 1.0, 0.0, ends[0], y_face)
-        if other >= 0:
-            col -= force(other, 1.0, 0.0, ends[0], y_face)
-        cols.append(col)
+        cols.append(joint(k, other, 1.0, 0.0, ends[0], y_face))
         bounds.append((None, None))
         if phi < 90.0:
             friction.append((len(cols), normals))
