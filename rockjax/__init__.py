@@ -46,7 +46,9 @@ from . import records as records  # noqa: E402
 from . import relations as relations  # noqa: E402
 from . import spectra as spectra  # noqa: E402
 from .assembly import Assembly as Assembly  # noqa: E402
+from .assembly import LimitAnalysis as LimitAnalysis  # noqa: E402
 from .assembly import collapse_multiplier as collapse_multiplier  # noqa: E402
+from .assembly import limit_analysis as limit_analysis  # noqa: E402
 from .block import Block as Block  # noqa: E402
 from .building import ShearBuilding as ShearBuilding  # noqa: E402
 from .building import floor_spectra as floor_spectra  # noqa: E402
@@ -99,6 +101,7 @@ __all__ = [
     "Fragility",
     "GroundMotion",
     "Joint",
+    "LimitAnalysis",
     "Response",
     "ShearBuilding",
     "ThreeBranchFit",
@@ -124,6 +127,7 @@ __all__ = [
     "ida",
     "identify_pulse",
     "jsonio",
+    "limit_analysis",
     "metrics",
     "omega_crit",
     "omega_hcrit",

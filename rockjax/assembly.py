@@ -18,9 +18,12 @@ shear).
 
 from __future__ import annotations
 
+import math
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Float
 
 from ._checks import check_choice, check_nonnegative, check_number, concrete
 from ._types import ScalarLike
@@ -276,14 +279,236 @@ class Assembly(eqx.Module):
         return jnp.maximum(-half, rel - 0.5 * below.b), jnp.minimum(half, rel + 0.5 * below.b)
 
 
-MECHANISMS = ("stack", "top", "hinge", "row")
+MECHANISMS = ("limit", "stack", "top", "hinge", "row")
+
+PHI_DEG_LIMIT = 50.0
+"""Default friction angle of the joints in limit analysis [deg]: that of
+:func:`rockjax.simulate_assembly` and :func:`rockjax.pushover` for a parapet."""
 
 
-def collapse_multiplier(assembly: Assembly, mechanism: str = "stack"):
-    """Horizontal load multiplier at the onset of a rigid-block mechanism (virtual work,
-    docs/assemblies.md "Limit analysis"): the ground acceleration ``lambda g`` [-] at which
-    the mechanism starts, with the blocks' weights as horizontal loads ``lambda W_k`` and the
+class LimitAnalysis(eqx.Module):
+    """The collapse of an assembly under a uniform horizontal acceleration (limit analysis,
+    :func:`limit_analysis`).
+
+    Attributes:
+        load_multiplier: ``lambda`` [-]: the horizontal acceleration in g (toward +x) at
+            which the assembly becomes a mechanism.
+        velocity: The mechanism (sample of virtual velocities), per block ``(u, v, omega)``:
+            the horizontal and vertical velocity of its centroid [m/s] and its angular
+            velocity [rad/s] (clockwise positive, as ``theta``), scaled so that the largest
+            horizontal velocity of a block's top face centre (a stack) or top (a row) is 1 m/s
+            and the horizontal loads do positive work; shape ``(block, 3)``.
+        phi_deg: The joints' friction angle used [deg].
+    """
+
+    load_multiplier: Float[Array, ""]
+    velocity: Float[Array, "block 3"]
+    phi_deg: float = PHI_DEG_LIMIT
+
+
+def limit_analysis(assembly: Assembly, phi_deg: float = PHI_DEG_LIMIT) -> LimitAnalysis:
+    """Limit analysis of an assembly of rigid blocks under a uniform horizontal acceleration
+    ``lambda g`` toward +x: the largest ``lambda`` [-] for which the blocks can stand in
+    equilibrium with admissible joint forces (the static theorem, a linear programme;
+    Livesley 1978), and the collapse mechanism (its dual), docs/assemblies.md "Limit
+    analysis".
+
+    Every joint of :attr:`Assembly.interfaces` that touches at rest (the bed joints of a
+    stack, the ground joints and the head joints of touching blocks of a row) is rigid, has
+    no tensile strength (its normal force is two non-negative forces at the ends of the
+    contact face: the resultant anywhere on the face) and Coulomb friction on its resultant,
+    ``|T| <= tan(phi) N`` (the head joints of a row are smooth, as in the DEM). Loads: the
+    weights ``W_k``, horizontal loads ``lambda W_k`` at the centroids, the overburden
+    ``P = overburden length`` at the top face centre of the top block (dead, not
+    multiplied); a restrained top (``top="restrained"``) is a horizontal bilateral support
+    there (its ``gap`` taken as closed: the wall bears on it once it has moved ``gap``).
+    Rocking, sliding and their combinations in all blocks and sub-stacks are covered.
+
+    The programme treats friction as associative (a slip dilates by ``tan(phi)``): exact for
+    mechanisms of rocking alone and for sliding along one joint; where a mechanism mixes
+    sliding with rocking it is the associative bound, above the collapse load of the
+    non-associative Coulomb joint (Gilbert, Casapulla, Ahmed 2006). Solved by HiGHS's dual
+    simplex (``scipy.optimize.linprog``): an exact vertex, to round-off.
+
+    Args:
+        assembly: The assembly (a stack or a row).
+        phi_deg: Friction angle of every bed and ground joint [deg], ``0 < phi_deg <= 90``
+            (90: no sliding); default ``PHI_DEG_LIMIT`` (50, the DEM's parapet default).
+
+    Returns:
+        The :class:`LimitAnalysis` (its ``load_multiplier`` is :func:`collapse_multiplier`).
+
+    Raises:
+        ValueError: for a traced assembly (call it outside ``jit``), a ``phi_deg`` outside
+            ``(0, 90]``, or an assembly that no horizontal acceleration holds in equilibrium.
+
+    References:
+        Livesley, R. K. (1978). Limit analysis of structures formed from rigid blocks.
+        Int. J. Numer. Meth. Eng. 12, 1853-1871. Gilbert, M., Casapulla, C., Ahmed, H. M.
+        (2006). Limit analysis of masonry block structures with non-associative frictional
+        joints using linear programming. Computers & Structures 84, 873-887.
+    """
+    from scipy.optimize import linprog
+
+    check_number("phi_deg", phi_deg, "degrees", "e.g. phi_deg=50.0; 90 for no sliding.")
+    phi = float(phi_deg)
+    if not 0.0 < phi <= 90.0:
+        raise ValueError(
+            f"phi_deg (the joints' friction angle, in degrees) must lie in (0, 90]; got "
+            f"phi_deg={phi_deg}. Use e.g. 50.0, or 90 for joints that cannot slide."
+        )
+    geo = _concrete_geometry(assembly)
+    n = len(assembly.blocks)
+    w, xs, ys, hs = geo["w"], geo["x"], geo["y"], geo["h"]
+    scale = sum(w)  # forces in units of the total weight: a well-scaled programme
+    rows = np.zeros((3 * n, 1))  # variable 0: lambda
+    rows[0::3, 0] = np.asarray(w) / scale
+    cols = []  # each further variable: its column of the equilibrium equations
+    bounds = [(None, None)]
+    friction = []  # (shear column, [normal columns]) of each frictional joint
+
+    def force(k, fx, fy, px, py):
+        """The column of a unit force ``(fx, fy)`` at ``(px, py)`` on block ``k``: its
+        horizontal, vertical and clockwise moment rows (moments about the centroid)."""
+        col = np.zeros(3 * n)
+        col[3 * k : 3 * k + 3] = (fx, fy, (py - ys[k]) * fx - (px - xs[k]) * fy)
+        return col
+
+    def joint(k, other, fx, fy, px, py):
+        """A joint's force: ``(fx, fy)`` on block ``k``, its reaction on ``other``."""
+        col = force(k, fx, fy, px, py)
+        return col - force(other, fx, fy, px, py) if other >= 0 else col
+
+    for k, other, kind, ends in geo["joints"]:
+        if kind == "head":  # smooth: a normal force along +x on block k at each end
+            x_face = xs[k] - 0.5 * geo["b"][k]
+            for y_end in ends:
+                cols.append(joint(k, other, 1.0, 0.0, x_face, y_end))
+                bounds.append((0.0, None))
+            continue
+        y_face = ys[k] - 0.5 * hs[k]
+        normals = []
+        for x_end in ends:
+            cols.append(joint(k, other, 0.0, 1.0, x_end, y_face))
+            bounds.append((0.0, None))
+            normals.append(len(cols))
+        cols.append(joint(k, other, 1.0, 0.0, ends[0], y_face))
+        bounds.append((None, None))
+        if phi < 90.0:
+            friction.append((len(cols), normals))
+    top = n - 1
+    q = (xs[top], ys[top] + 0.5 * hs[top])  # the top face centre
+    if assembly.layout == "stack" and assembly.top == "restrained":
+        cols.append(force(top, 1.0, 0.0, *q))
+        bounds.append((None, None))
+    a_eq = np.hstack([rows, np.stack(cols, axis=1)])
+    b_eq = np.zeros(3 * n)
+    for k in range(n):
+        b_eq[3 * k + 1] = w[k] / scale  # the supports carry the weight
+    b_eq += -force(top, 0.0, -geo["p"] / scale, *q)  # the overburden, a dead load
+    n_var = a_eq.shape[1]
+    mu = math.tan(math.radians(phi))
+    a_ub = np.zeros((2 * len(friction), n_var))
+    for j, (t, normals) in enumerate(friction):
+        for sign, r in ((1.0, 2 * j), (-1.0, 2 * j + 1)):
+            a_ub[r, t] = sign
+            a_ub[r, normals] = -mu
+    cost = np.zeros(n_var)
+    cost[0] = -1.0
+    res = linprog(
+        cost,
+        A_ub=a_ub if friction else None,
+        b_ub=np.zeros(len(a_ub)) if friction else None,
+        A_eq=a_eq,
+        b_eq=b_eq,
+        bounds=bounds,
+        method="highs-ds",
+    )
+    if res.status == 3:  # unbounded: no mechanism under any horizontal load
+        lam, vel = math.inf, np.zeros((n, 3))
+    elif res.status != 0:
+        raise ValueError(
+            "the assembly has no equilibrium under any uniform horizontal acceleration "
+            f"(linear programme: {res.message}); check the blocks' x_offset: every block's "
+            "centre of gravity must be able to rest on the joints below it."
+        )
+    else:
+        lam = float(res.x[0])
+        vel = _mechanism(np.asarray(res.eqlin.marginals).reshape(n, 3), w, hs, assembly.layout)
+    return LimitAnalysis(
+        load_multiplier=jnp.asarray(lam, float), velocity=jnp.asarray(vel, float), phi_deg=phi
+    )
+
+
+def _concrete_geometry(assembly: Assembly) -> dict:
+    """The assembly's numbers at rest for :func:`limit_analysis`: weights ``w`` [N],
+    centroids ``x``, ``y`` [m], ``b``, ``h`` [m], the overburden force ``p`` [N] and the
+    joints touching at rest, ``(block, other, kind, ends)`` with ``ends`` the absolute x
+    (bed) or y (head) coordinates of the contact face's ends [m]."""
+    vals = {}
+    for name, get in (
+        ("w", lambda b: b.m * G),
+        ("b", lambda b: b.b),
+        ("h", lambda b: b.h),
+    ):
+        vals[name] = [concrete(get(b)) for b in assembly.blocks]
+    vals["x"] = [concrete(x) for x in assembly.x_offset]
+    vals["p"] = concrete(assembly.top_load)
+    flat = [v for key in ("w", "b", "h", "x") for v in vals[key]] + [vals["p"]]
+    if any(v is None or np.ndim(v) != 0 for v in flat):
+        raise ValueError(
+            "limit analysis needs an assembly of concrete scalar blocks (a linear programme "
+            "solved by scipy, not traceable): call rj.collapse_multiplier / rj.limit_analysis "
+            "outside jit, vmap and grad, or name a closed-form mechanism, e.g. "
+            "rj.collapse_multiplier(wall, 'stack')."
+        )
+    geo = {key: [float(v) for v in vals[key]] for key in ("w", "b", "h", "x")}
+    geo["p"] = float(vals["p"])
+    n = len(assembly.blocks)
+    if assembly.layout == "row":
+        geo["y"] = [0.5 * h for h in geo["h"]]
+    else:
+        base = np.concatenate([[0.0], np.cumsum(geo["h"])])
+        geo["y"] = [float(base[k]) + 0.5 * geo["h"][k] for k in range(n)]
+    joints = []
+    for i, (k, other, kind) in enumerate(assembly.interfaces):
+        lo, hi = (float(v) for v in assembly.face(i))
+        if kind == "head":
+            clear = geo["x"][k] - geo["x"][other] - 0.5 * (geo["b"][k] + geo["b"][other])
+            if clear > 1e-9 * max(geo["b"][k], geo["b"][other]):
+                continue  # apart at rest: no contact at the onset of a mechanism
+            joints.append((k, other, kind, (geo["y"][k] + lo, geo["y"][k] + hi)))
+        else:
+            joints.append((k, other, kind, (geo["x"][k] + lo, geo["x"][k] + hi)))
+    geo["joints"] = joints
+    return geo
+
+
+def _mechanism(duals, w, hs, layout):
+    """The collapse mechanism from the equilibrium equations' duals (per block ``(u, v,
+    omega)``, the virtual velocities conjugate to the horizontal force, vertical force and
+    clockwise moment rows), with the horizontal loads doing positive work and the largest
+    horizontal velocity of a block's top 1."""
+    vel = np.array(duals, float)
+    if np.dot(w, vel[:, 0]) < 0:
+        vel = -vel
+    top = vel[:, 0] + 0.5 * np.asarray(hs) * vel[:, 2]
+    size = np.max(np.abs(top))
+    return vel / size if size > 0 else vel
+
+
+def collapse_multiplier(
+    assembly: Assembly, mechanism: str = "limit", *, phi_deg: float = PHI_DEG_LIMIT
+):
+    """Horizontal load multiplier at the onset of collapse, docs/assemblies.md "Limit
+    analysis": the ground acceleration ``lambda g`` [-] at which the assembly becomes a
+    mechanism, with the blocks' weights as horizontal loads ``lambda W_k`` and the
     overburden a dead vertical load (not multiplied).
+
+    ``"limit"`` (the default): the lowest over all mechanisms of rocking and sliding, by
+    :func:`limit_analysis` (a linear programme; concrete assemblies only, not traceable).
+    The named mechanisms are the closed forms of one mechanism each (virtual work;
+    traceable and differentiable), upper bounds of ``"limit"``.
 
     With ``W_k`` the block weights, ``x_k, y_k`` their centroids at rest and ``P`` the top load:
 
@@ -307,15 +532,20 @@ def collapse_multiplier(assembly: Assembly, mechanism: str = "stack"):
 
     Args:
         assembly: The assembly.
-        mechanism: ``"stack"``, ``"top"``, ``"hinge"`` or ``"row"``.
+        mechanism: ``"limit"`` (default), ``"stack"``, ``"top"``, ``"hinge"`` or ``"row"``.
+        phi_deg: Friction angle of the joints [deg] (``"limit"`` only; the named mechanisms
+            are of rocking alone); default ``PHI_DEG_LIMIT`` (50).
 
     Returns:
         The multiplier ``lambda`` [-] (a JAX scalar).
 
     Raises:
-        ValueError: on an unknown mechanism or one the supports do not allow.
+        ValueError: on an unknown mechanism or one the supports do not allow, and as
+            :func:`limit_analysis`.
     """
     check_choice("mechanism", mechanism, MECHANISMS)
+    if mechanism == "limit":
+        return limit_analysis(assembly, phi_deg).load_multiplier
 
     blocks = assembly.blocks
     n = len(blocks)

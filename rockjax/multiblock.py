@@ -1157,39 +1157,66 @@ def _energy(p: AssemblyParams, st: AssemblyState, vel, wall=None):
 
 
 def _collapsed(p: AssemblyParams, st: AssemblyState):
-    """The collapse rule (docs/assemblies.md, "Collapse"): a block past ``|theta| > eta``
-    rotating outward (the one-block rule of :func:`rockjax.simulate_dem`); with a free top, a
-    sub-stack whose centre of gravity (overburden included) has passed the edge of its
-    support and moves outward; a block whose bottom face's centre has slid off the block
-    below. A row (side by side, docs/assemblies.md "Blocks side by side"): a block can turn
-    past ``eta`` toward a neighbour only with it, so the row has collapsed when its end block
-    on the side of the rotation (block ``n - 1`` for ``theta > 0``, block 0 for
-    ``theta < 0``) is past ``eta`` rotating outward."""
+    """The collapse rule (docs/assemblies.md, "Collapse"). On the ground (block 0, and the
+    whole stack with a free top): past ``|theta| > eta``, or the centre of gravity past the
+    edge of the ground joint, rotating outward (the one-block rule of
+    :func:`rockjax.simulate_dem`). On a block (block ``k >= 1``, and the sub-stack ``k..N``
+    with a free top): the same rule holds both under gravity and in the frame of the block
+    below, moving outward in both (a block carried tilted by the one below has not turned
+    off its support); the top block of a restrained wall, held at its top, is judged by the
+    last rule alone. A block whose bottom face's centre has slid off the block below. A row
+    (side by side, docs/assemblies.md "Blocks side by side"): a block can turn past ``eta``
+    toward a neighbour only with it, so the row has collapsed when its end block on the side
+    of the rotation (block ``n - 1`` for ``theta > 0``, block 0 for ``theta < 0``) is past
+    ``eta`` rotating outward."""
     over = jnp.zeros((), bool)
     if p.row:
         for k, sign in ((p.n - 1, 1.0), (0, -1.0)):
             th, w = sign * st.theta[k], sign * st.w[k]
             over = over | ((th > p.eta[k]) & (w > 0))
         return over
-    for k in range(p.n):
+    # a restrained wall's top block is held at its top: it falls only off the block below
+    for k in range(p.n - 1 if p.restrained and p.n > 1 else p.n):
         th, w = st.theta[k], st.w[k]
-        over = over | ((jnp.abs(th) > p.eta[k]) & (th * w > 0))
+        past = (jnp.abs(th) > p.eta[k]) & (th * w > 0)
+        if k > 0:  # and relative to the block below
+            rel, w_rel = th - st.theta[k - 1], w - st.w[k - 1]
+            past = past & (jnp.abs(rel) > p.eta[k]) & (rel * w_rel > 0) & (rel * th > 0)
+        over = over | past
     if p.n > 1 and not p.restrained:
         k_top = p.n - 1
-        qx = st.x[k_top] + 0.5 * p.h[k_top] * st.s[k_top]
-        qvx = st.vx[k_top] + st.w[k_top] * 0.5 * p.h[k_top] * st.c[k_top]
-        wq = p.top_load / G
-        mass, mx, mv = wq, wq * qx, wq * qvx
+        hq = 0.5 * p.h[k_top]
+        wq = p.top_load / G  # the overburden, a weight at the top face centre Q
+        mass = wq
+        mx = wq * (st.x[k_top] + hq * st.s[k_top])
+        my = wq * (st.y[k_top] + hq * st.c[k_top])
+        mvx = wq * (st.vx[k_top] + st.w[k_top] * hq * st.c[k_top])
+        mvy = wq * (st.vy[k_top] - st.w[k_top] * hq * st.s[k_top])
         for k in range(p.n - 1, -1, -1):
             mass = mass + p.m[k]
-            mx = mx + p.m[k] * st.x[k]
-            mv = mv + p.m[k] * st.vx[k]
-            gx, gv = mx / mass, mv / mass
+            mx, my = mx + p.m[k] * st.x[k], my + p.m[k] * st.y[k]
+            mvx, mvy = mvx + p.m[k] * st.vx[k], mvy + p.m[k] * st.vy[k]
+            g = (mx / mass, my / mass)
+            gv = (mvx / mass, mvy / mass)
             c, s = st.c[k], st.s[k]
             hh = 0.5 * p.h[k]
-            edge_lo = st.x[k] + p.lo[k] * c - hh * s
-            edge_hi = st.x[k] + p.hi[k] * c - hh * s
-            over = over | ((gx > edge_hi) & (gv > 0)) | ((gx < edge_lo) & (gv < 0))
+            for end, sign in ((p.hi[k], 1.0), (p.lo[k], -1.0)):
+                # the end of the support face, a point of block k (body (end, -h_k/2))
+                ex, ey = st.x[k] + end * c - hh * s, st.y[k] - end * s - hh * c
+                evx = st.vx[k] + st.w[k] * (ey - st.y[k])
+                evy = st.vy[k] - st.w[k] * (ex - st.x[k])
+                dx, dy = g[0] - ex, g[1] - ey
+                dvx, dvy = gv[0] - evx, gv[1] - evy
+                # under gravity: beyond the end horizontally, moving outward
+                past = (sign * dx > 0) & (sign * gv[0] > 0)
+                if k > 0:
+                    # in the frame of block k - 1: along its top face e1 = (c_l, -s_l),
+                    # beyond the end and moving outward relative to it
+                    cl, sl, wl = st.c[k - 1], st.s[k - 1], st.w[k - 1]
+                    along = cl * dx - sl * dy
+                    rate = cl * dvx - sl * dvy - wl * (sl * dx + cl * dy)
+                    past = past & (sign * along > 0) & (sign * rate > 0)
+                over = over | past
     for k in range(1, p.n):
         # slid off: the centre of block k's bottom face (body point (0, -h_k/2)), in the frame
         # of block k - 1, beyond that block's half-width; measured at the face, not the

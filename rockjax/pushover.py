@@ -18,10 +18,11 @@ import math
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from ._checks import check_choice, check_nonnegative, check_positive
-from .assembly import Assembly, collapse_multiplier, row_multipliers
+from .assembly import Assembly, limit_analysis
 from .block import Block
 from .constants import G
 from .contact import Joint
@@ -76,10 +77,10 @@ class Capacity(eqx.Module):
             (sample x block); ``None`` for one block.
 
     For an assembly, ``b`` is block 0's thickness, ``h`` the stack's height,
-    ``lambda_rigid`` the smallest multiplier of the rigid mechanisms the supports allow (each
-    sub-stack about its base toe; the two-block hinge with a top restraint; NaN for a
-    restrained wall of more blocks), see :func:`rockjax.collapse_multiplier`, ``theta`` the rotation of the block that rotated most by
-    the end of the pull, and ``d_over_b`` the largest horizontal displacement of a block's
+    ``lambda_rigid`` the rigid collapse multiplier of :func:`rockjax.limit_analysis` (the
+    lowest mechanism of rocking and sliding, with the pull's friction angle; ``inf`` where
+    none forms), ``theta`` the rotation of the block that rotated most by the end of the
+    pull, and ``d_over_b`` the largest horizontal displacement of a block's
     top face centre over ``b`` (docs/pushover.md, "Assemblies");
     :meth:`rigid_load_multiplier` is the one-block curve and does not apply.
     """
@@ -321,47 +322,18 @@ def _pull(params, state0, control: _Control, dt, n_in: int, n_samples: int):
 # ----------------------------------------------------------------------------- assemblies
 
 
-def _mechanisms(assembly: Assembly):
-    """The rigid mechanisms under a uniform horizontal body force (small rotation): per
-    mechanism its multiplier ``lambda`` [-] and the ratio of the control coordinate (the
-    mass-weighted mean centroid displacement) to the largest top-face displacement [-].
-
-    Free top: each sub-stack above interface ``k`` about that interface's +x toe (``k = 0``
-    is :func:`rockjax.collapse_multiplier`'s ``"stack"``, ``k = n - 1`` its ``"top"``).
-    Restrained top, two blocks: the ``"hinge"`` (both centroids move ``h_0 / 2`` per unit
-    rotation of block 0, whose top moves ``h_0``); more blocks: no closed form (NaN). A row
-    of touching blocks side by side: the blocks ``j .. n-1`` each about its own toe
-    (``"row"`` of :func:`rockjax.collapse_multiplier`; centroids move ``h_k / 2`` per unit
-    rotation, the tallest top ``max h_k``)."""
-    blocks = assembly.blocks
-    n = len(blocks)
-    m = [float(b.m) for b in blocks]
-    h = [float(b.h) for b in blocks]
-    if assembly.layout == "row":
-        # blocks j..n-1 each about its own toe: centroids move h_k / 2 per unit rotation
-        ratios = [
-            sum(m[k] * 0.5 * h[k] for k in range(j, n)) / sum(m) / max(h[j:]) for j in range(n)
-        ]
-        try:
-            lams = row_multipliers(assembly)
-        except ValueError:  # a row with gaps: no rigid mechanism from rest
-            return [(math.nan, ratios[0])]
-        return [(float(lam), ratio) for lam, ratio in zip(lams, ratios)]
-    xs = [float(x) for x in assembly.x_offset]
-    total = sum(m)
-    p_top = float(assembly.top_load)
-    if assembly.top == "restrained":
-        if n == 2:
-            return [(float(collapse_multiplier(assembly, "hinge")), 0.5)]
-        return [(math.nan, 0.5)]
-    base = [sum(h[:k]) for k in range(n)]
-    out = []
-    for k in range(n):
-        x_o = xs[k] + float(assembly.overlap(k)[1])
-        num = sum(m[j] * G * (x_o - xs[j]) for j in range(k, n)) + p_top * (x_o - xs[-1])
-        arm = sum(m[j] * (base[j] + 0.5 * h[j] - base[k]) for j in range(k, n))
-        out.append((num / (G * arm), arm / (sum(h) - base[k]) / total))
-    return out
+def _mechanism(assembly: Assembly, phi_deg):
+    """The rigid collapse mechanism under a uniform horizontal body force (small rotation,
+    :func:`rockjax.limit_analysis`): its multiplier ``lambda`` [-] and the ratio of the
+    control coordinate (the mass-weighted mean centroid displacement) to the largest
+    displacement of a block's top face centre [-] (0.5 where no mechanism forms)."""
+    la = limit_analysis(assembly, phi_deg)
+    lam = float(la.load_multiplier)
+    if not math.isfinite(lam):
+        return lam, 0.5
+    m = np.asarray([float(b.m) for b in assembly.blocks])
+    # the velocities are scaled so that the largest top face centre moves at 1
+    return lam, float(np.dot(m, np.asarray(la.velocity)[:, 0]) / m.sum())
 
 
 def _pushover_assembly(assembly, beta, d_over_b, duration, n_out, joint, phi_deg):
@@ -385,8 +357,7 @@ def _pushover_assembly(assembly, beta, d_over_b, duration, n_out, joint, phi_deg
     masses = [float(b.m) for b in blocks]
     total = sum(masses)
     weight = total * G
-    mechs = _mechanisms(assembly)
-    lam_rigid, ratio = min(mechs, key=lambda v: v[0]) if len(mechs) > 1 else mechs[0]
+    lam_rigid, ratio = _mechanism(assembly, phi_deg)
     interval = duration / (n_out - 1)
     n_settle = math.ceil(SETTLE_FRACTION * (n_out - 1))
     t_settle = n_settle * interval

@@ -199,7 +199,7 @@ def test_row_jit_and_vmap_over_records():
             lambda: simulate_assembly(Assembly.row([SLENDER, SQUAT]), PULSE, mode="one_sided"),
             "one_sided",
         ),
-        (lambda: collapse_multiplier(Assembly.row([SLENDER, SQUAT])), "mechanism='row'"),
+        (lambda: collapse_multiplier(Assembly.row([SLENDER, SQUAT]), "stack"), "mechanism='row'"),
         (lambda: collapse_multiplier(Assembly.row([SLENDER], x_offset=(0.0,)), "top"), "row"),
         (
             lambda: collapse_multiplier(Assembly.row([SLENDER, SQUAT], x_offset=(0, 0.3)), "row"),
