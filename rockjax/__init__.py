@@ -45,6 +45,7 @@ from . import pulses as pulses  # noqa: E402
 from . import records as records  # noqa: E402
 from . import relations as relations  # noqa: E402
 from . import spectra as spectra  # noqa: E402
+from ._checks import PlausibilityWarning as PlausibilityWarning  # noqa: E402
 from .assembly import Assembly as Assembly  # noqa: E402
 from .assembly import collapse_multiplier as collapse_multiplier  # noqa: E402
 from .block import Block as Block  # noqa: E402
@@ -99,6 +100,7 @@ __all__ = [
     "Fragility",
     "GroundMotion",
     "Joint",
+    "PlausibilityWarning",
     "Response",
     "ShearBuilding",
     "ThreeBranchFit",
