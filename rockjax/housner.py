@@ -1999,6 +1999,11 @@ def _first_step_velocity(theta_dot0, theta0, e, dt_step: float):
     rad of that swing, 1.4 rad at the coarsest step allowed (``p dt_step = 0.5``). A faster
     start overturns in that step all the same, while the solver's rotation polynomials would
     overflow to NaN on it (1e6 rad/s)."""
+    vals = [concrete(x) for x in (theta_dot0, theta0, e)]
+    if all(v is not None for v in vals):  # NumPy: an eager jnp op would compile
+        w, th, e_c = vals
+        cap = (2.0 * np.pi + np.abs(th)) / (np.abs(e_c) * dt_step)
+        return np.clip(w, -cap, cap)
     cap = (2.0 * jnp.pi + jnp.abs(theta0)) / (jnp.abs(e) * dt_step)
     return jnp.clip(jnp.asarray(theta_dot0, dtype=float), -cap, cap)
 
