@@ -36,6 +36,7 @@ from .block import Block
 from .constants import G
 
 TOPS = ("free", "restrained")
+LAYOUTS = ("stack", "row")
 
 ASSEMBLY_GAP_UNUSED = (
     f"{GAP_NEEDS_ONE_SIDED} The top restraint's clearance is the Assembly's own: "
@@ -49,7 +50,6 @@ TOP_GAP_UNUSED = (
     "distance to its return walls is simulate_assembly's gap= (with mode='one_sided')."
 )
 """Why a restraint ``gap`` is refused for a free top."""
-LAYOUTS = ("stack", "row")
 
 
 def block_tuple(blocks) -> tuple:

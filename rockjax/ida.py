@@ -256,7 +256,6 @@ def run_config(
                 f"an Assembly runs with model='dem' only; got model={model!r}. Pass "
                 "model='dem' with beta=..."
             )
-        check_gap(gap, used=mode == "one_sided", unused=ASSEMBLY_GAP_UNUSED, hint=GAP_HINT)
         if wall_motion is not None and support_motion is not None:
             if not isinstance(wall_motion, ShearBuilding):
                 raise ValueError(
@@ -296,14 +295,11 @@ def run_config(
                 f"mode={mode!r}. For a parapet on a roof, run the IDA on the roof's motions "
                 "(bldg.floor_motions(record)[-1])."
             )
-    check_gap(
-        gap,
-        used=mode == "one_sided" and model == "dem",
-        unused=GAP_NEEDS_ONE_SIDED
-        if model == "dem"
-        else "the Housner models have no facade gap. Use model='dem', or leave gap=0.",
-        hint=GAP_HINT,
-    )
+    if model != "dem":
+        unused = "the Housner models have no facade gap. Use model='dem', or leave gap=0."
+    else:
+        unused = ASSEMBLY_GAP_UNUSED if isinstance(block, Assembly) else GAP_NEEDS_ONE_SIDED
+    check_gap(gap, used=mode == "one_sided" and model == "dem", unused=unused, hint=GAP_HINT)
     if model == "dem":
         if e is not None:
             raise ValueError(

@@ -1633,7 +1633,6 @@ def simulate_assembly(
     for key in save:
         check_choice("save entry", key, SAVE_OPTIONS)
     check_choice("mode", mode, MODES)
-    check_gap(gap, used=mode == "one_sided", unused=ASSEMBLY_GAP_UNUSED, hint=GAP_HINT)
     if phi_deg is None:
         phi_deg = 50.0 if mode == "two_sided" else 30.0
     p = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg, mode=mode, gap=gap)
