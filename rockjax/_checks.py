@@ -238,8 +238,8 @@ brick's width) the value is more likely millimetres typed for metres (``gap=1`` 
 
 
 GAP_NEEDS_ONE_SIDED = (
-    "gap is the distance to a facade's return walls, and mode='two_sided' (a parapet) has "
-    "none. Pass mode='one_sided' for a facade, or leave gap=0."
+    "gap is the distance to a facade's return walls and needs mode='one_sided' (a facade); "
+    "mode='two_sided' (a parapet) has none. Pass mode='one_sided', or leave gap=0."
 )
 """Why a gap is refused with ``mode="two_sided"`` (:func:`check_gap`), in every entry point."""
 
