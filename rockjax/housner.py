@@ -1368,7 +1368,10 @@ def simulate_housner(
             one-sided ``0 < |e| <= 1``, its magnitude is used (default ``|e_1sr|``, Eq. (5)).
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade, ``theta >= 0``).
         theta0: Initial rotation [rad], ``|theta0| < eta`` (``>= 0`` one-sided).
-        theta_dot0: Initial angular velocity [rad/s].
+        theta_dot0: Initial angular velocity [rad/s]. A start faster than
+            ``(2 pi + |theta0|) / (|e| dt_step)`` (``dt_step`` the solver's step), which
+            carries the block past overturning within that step, is run at that speed: it
+            overturns all the same (docs/conventions.md, "Input checks").
         duration: Length of the run [s]; required for free rocking, else default the record's.
             A longer duration appends zeros (free vibration after the record); a shorter one
             truncates it.
