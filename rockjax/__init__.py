@@ -45,6 +45,7 @@ from . import pulses as pulses  # noqa: E402
 from . import records as records  # noqa: E402
 from . import relations as relations  # noqa: E402
 from . import spectra as spectra  # noqa: E402
+from ._checks import PlausibilityWarning as PlausibilityWarning  # noqa: E402
 from .assembly import Assembly as Assembly  # noqa: E402
 from .assembly import LimitAnalysis as LimitAnalysis  # noqa: E402
 from .assembly import collapse_multiplier as collapse_multiplier  # noqa: E402
@@ -102,6 +103,7 @@ __all__ = [
     "GroundMotion",
     "Joint",
     "LimitAnalysis",
+    "PlausibilityWarning",
     "Response",
     "ShearBuilding",
     "ThreeBranchFit",

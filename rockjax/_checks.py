@@ -5,6 +5,7 @@ Traced values (inside jit/vmap/grad) cannot be checked here; those are checked i
 """
 
 import math
+import warnings
 from typing import NamedTuple
 
 import jax
@@ -211,3 +212,65 @@ def check_series_pair(arg: str, names: tuple[str, str], pair, n: int, fix: str) 
             raise ValueError(
                 f"{arg}: {name} contains non-finite values (NaN or inf); clean it first."
             )
+
+
+# ----------------------------------------------------------------------------- plausibility
+# A value outside what the model or the structure can mean is refused when no reading of it
+# is right (a unit slip: millimetres for metres); where it could still be meant, it is run
+# with a warning that names the likely unit fix. Each threshold is a named constant with its
+# reason where it is used.
+
+
+class PlausibilityWarning(UserWarning):
+    """A value that may be meant but is more likely a unit slip (the message names the fix)."""
+
+
+def warn_implausible(message: str) -> None:
+    """Warn that a value is implausible (:class:`PlausibilityWarning`), at the caller's
+    caller (the user's line)."""
+    warnings.warn(message, PlausibilityWarning, stacklevel=3)
+
+
+MAX_GAP = 0.1
+"""Largest gap [m] run without a warning: a facade's gap to its return walls or a top
+restraint's clearance is a crack or a joint, millimetres to centimetres wide; above 0.1 m (a
+brick's width) the value is more likely millimetres typed for metres (``gap=1`` for 1 mm)."""
+
+
+GAP_NEEDS_ONE_SIDED = (
+    "gap is the distance to a facade's return walls and needs mode='one_sided' (a facade); "
+    "mode='two_sided' (a parapet) has none. Pass mode='one_sided', or leave gap=0."
+)
+"""Why a gap is refused with ``mode="two_sided"`` (:func:`check_gap`), in every entry point."""
+
+GAP_HINT = "gap is the facade-to-return-wall distance, e.g. 0.001."
+"""The fix named for a gap that is no finite number >= 0."""
+
+
+def check_gap(gap, *, used: bool, unused: str, hint: str, name: str = "gap") -> None:
+    """The one home of the checks of a gap [m] (a facade's distance to its return walls, a
+    top restraint's clearance): a finite number >= 0; refused where it would be ignored
+    (``used`` False, ``unused`` saying why and what to do), as no gap is dropped silently;
+    a warning above :data:`MAX_GAP` (a unit slip, or a very wide gap)."""
+    check_nonnegative(name, gap, "m", hint, scalar=True)
+    g = concrete(gap)
+    if g is None:
+        return
+    g = float(g)
+    if not used and g != 0.0:
+        raise ValueError(f"{name}={g:.4g} m would be ignored: {unused}")
+    if g > MAX_GAP:
+        warn_implausible(
+            f"{name}={g:.4g} m is wider than any crack or joint ({MAX_GAP:g} m is a brick's "
+            f"width). rockjax works in metres: did you give millimetres? Divide by 1000 "
+            f"(e.g. {name}=0.001 for 1 mm)."
+        )
+
+
+def check_kind(name: str, value, kinds: tuple[type, ...], fix: str) -> None:
+    """Refuse a ``value`` that is none of ``kinds`` (e.g. None, or an Assembly given to a
+    one-block function), naming the argument, what it got and the fix."""
+    if not isinstance(value, kinds):
+        wanted = " or ".join(f"a rockjax.{k.__name__}" for k in kinds)
+        got = "None" if value is None else f"a {type(value).__name__}"
+        raise ValueError(f"{name} must be {wanted}; got {got}. {fix}")

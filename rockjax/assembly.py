@@ -25,13 +25,46 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._checks import check_choice, check_nonnegative, check_number, concrete
+from ._checks import (
+    GAP_NEEDS_ONE_SIDED,
+    check_choice,
+    check_gap,
+    check_kind,
+    check_nonnegative,
+    check_number,
+    concrete,
+)
 from ._types import ScalarLike
 from .block import Block
 from .constants import G
 
 TOPS = ("free", "restrained")
 LAYOUTS = ("stack", "row")
+
+ASSEMBLY_GAP_UNUSED = (
+    f"{GAP_NEEDS_ONE_SIDED} The top restraint's clearance is the Assembly's own: "
+    "rj.Assembly.stack(blocks, top='restrained', gap=...)."
+)
+"""Why a facade ``gap`` is refused for a two-sided assembly (its restraint has its own)."""
+
+TOP_GAP_UNUSED = (
+    "gap is the top restraint's clearance, and top='free' has no restraint. Pass "
+    "top='restrained' for a wall held at its top (e.g. by a floor), or leave gap=0; a facade's "
+    "distance to its return walls is simulate_assembly's gap= (with mode='one_sided')."
+)
+"""Why a restraint ``gap`` is refused for a free top."""
+
+
+def block_tuple(blocks) -> tuple:
+    """``blocks`` as a tuple; a single block or anything not a sequence of blocks is refused
+    with the fix (a list of one block)."""
+    if isinstance(blocks, Block) or not hasattr(blocks, "__iter__") or isinstance(blocks, str):
+        got = "None" if blocks is None else f"a {type(blocks).__name__}"
+        raise ValueError(
+            f"blocks must be a sequence of rockjax.Block (a list or tuple), bottom to top; got "
+            f"{got}. For one block pass a list of one: rj.Assembly.stack([block])."
+        )
+    return tuple(blocks)
 
 
 class Assembly(eqx.Module):
@@ -91,8 +124,11 @@ class Assembly(eqx.Module):
             )
         check_choice("top", self.top, TOPS)
         check_choice("layout", self.layout, LAYOUTS)
-        check_nonnegative(
-            "gap", self.gap, "m", "gap is the top restraint's clearance, e.g. 0.002.", scalar=True
+        check_gap(
+            self.gap,
+            used=self.top == "restrained",
+            unused=TOP_GAP_UNUSED,
+            hint="gap is the top restraint's clearance, e.g. 0.002.",
         )
         check_nonnegative(
             "overburden",
@@ -163,7 +199,7 @@ class Assembly(eqx.Module):
         Raises:
             ValueError: on an empty row, a non-Block, or blocks that overlap.
         """
-        blocks = tuple(blocks)
+        blocks = block_tuple(blocks)
         if x_offset is None and blocks and all(isinstance(b, Block) for b in blocks):
             x_offset = [0.0]
             for k in range(1, len(blocks)):
@@ -227,7 +263,7 @@ class Assembly(eqx.Module):
             ValueError: on an empty stack, a non-Block, faces that do not overlap, an unknown
                 ``top``, a negative ``gap`` or ``overburden``.
         """
-        blocks = tuple(blocks)
+        blocks = block_tuple(blocks)
         if x_offset is None:
             x_offset = (0.0,) * len(blocks)
         return cls(
@@ -540,9 +576,16 @@ def collapse_multiplier(
         The multiplier ``lambda`` [-] (a JAX scalar).
 
     Raises:
-        ValueError: on an unknown mechanism or one the supports do not allow, and as
-            :func:`limit_analysis`.
+        ValueError: on something other than an Assembly, an unknown mechanism or one the
+            supports do not allow, and as :func:`limit_analysis`.
     """
+    check_kind(
+        "assembly",
+        assembly,
+        (Assembly,),
+        "For one block the multiplier is b/h (its tan eta, no overburden); or wrap it as "
+        "rj.Assembly.stack([block]).",
+    )
     check_choice("mechanism", mechanism, MECHANISMS)
     if mechanism == "limit":
         return limit_analysis(assembly, phi_deg).load_multiplier

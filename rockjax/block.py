@@ -14,6 +14,12 @@ MAX_DIMENSION = 50.0
 """Largest block dimension ``b``, ``h`` or ``length`` accepted [m]: above it the input is
 taken for a unit slip (millimetres for metres)."""
 
+MIN_DIMENSION = 1e-3
+"""Smallest block dimension ``b``, ``h`` or ``length`` accepted [m] (a millimetre, below any
+masonry unit or laboratory specimen): below it the input is taken for a unit slip (metres
+divided by 1000 twice, or kilometres for metres), and the rocking frequency ``p`` and the DEM
+step would leave floating-point range (a block of 1e-300 m)."""
+
 MIN_RHO = 100.0
 """Smallest density accepted [kg/m^3] (below any masonry, timber or aerated concrete): below it
 the input is taken for a unit slip (t/m^3 or g/cm^3 for kg/m^3)."""
@@ -73,6 +79,14 @@ class Block(eqx.Module):
                 "m",
                 f"rockjax works in metres: did you give millimetres? Divide by 1000 "
                 f"(e.g. {name}=0.25 for 250 mm).",
+            )
+            check_above(
+                name,
+                getattr(self, name),
+                MIN_DIMENSION,
+                "m",
+                f"rockjax works in metres (a brick is 0.1-0.25 m): give {name} in metres, "
+                f"e.g. {name}=0.25 for 250 mm.",
             )
         check_above(
             "rho",

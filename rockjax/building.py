@@ -41,7 +41,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._checks import check_choice, check_number, check_scalar, concrete
+from ._checks import (
+    check_below,
+    check_choice,
+    check_number,
+    check_scalar,
+    concrete,
+    warn_implausible,
+)
 from ._types import ScalarLike, TimeSeries
 from .constants import G
 from .motion import PLAUSIBLE_LIMIT_G, GroundMotion
@@ -54,6 +61,28 @@ and ``"rayleigh"`` (``C = a0 M + a1 K`` with ratio ``damping`` in modes 1 and 2)
 DEFAULT_FLOOR_MASS = 1.0e5
 """Floor mass of :meth:`ShearBuilding.uniform` [kg] (100 t, a URM floor of ~150 m^2). Floor
 motions depend only on the ratios k/m, so it matters only for the stiffnesses reported."""
+
+MAX_STOREY_HEIGHT = 20.0
+"""Largest storey height accepted [m]: storeys are 2.5-6 m, an industrial hall's up to about
+15 m; above 20 m the input is taken for millimetres typed for metres (3000 for 3 m)."""
+
+MAX_HEIGHT = 1000.0
+"""Largest height above the base accepted for a wall or facade [m] (taller than any building):
+above it the input is taken for millimetres typed for metres."""
+
+MAX_PERIOD_PER_STOREY = 0.5
+"""Largest fundamental period per storey run without a warning [s] (with at least
+:data:`MAX_PERIOD`): buildings run about 0.1 s per storey (URM 0.05-0.15 s), so five times
+that is a very flexible building at most, and more is likely a frequency in Hz typed for a
+period (``period=10`` for 0.1 s)."""
+
+MAX_PERIOD = 3.0
+"""Fundamental period [s] run without a warning however few the storeys: a base-isolated
+building of one or two storeys reaches 2-3 s."""
+
+_MM_FIX = (
+    "rockjax works in metres: did you give millimetres? Divide by 1000 (e.g. {}=3.0 for 3000 mm)."
+)
 
 
 def _series(name: str, value, unit: str, hint: str):
@@ -99,7 +128,8 @@ class ShearBuilding(eqx.Module):
     Args:
         masses: Floor masses [kg], bottom floor first, shape ``(storey,)``.
         stiffnesses: Storey lateral stiffnesses [N/m], bottom storey first.
-        storey_heights: Storey heights [m], bottom storey first.
+        storey_heights: Storey heights [m], bottom storey first; each at most
+            :data:`MAX_STOREY_HEIGHT` (above: millimetres, refused).
         damping: Damping ratio zeta [-], ``0 <= zeta < 1``; default 5 %.
         damping_model: ``"modal"`` (default): ``zeta`` in every mode; ``"rayleigh"``:
             ``C = a0 M + a1 K`` with ``zeta`` in modes 1 and 2, so higher modes are damped
@@ -134,6 +164,13 @@ class ShearBuilding(eqx.Module):
         self.storey_heights = _series(
             "storey_heights", storey_heights, "m", "Give one storey height per storey, e.g. 3.0."
         )
+        check_below(
+            "storey_heights",
+            concrete(storey_heights),
+            MAX_STOREY_HEIGHT,
+            "m",
+            _MM_FIX.format("storey_heights"),
+        )
         n = {a.shape[0] for a in (self.masses, self.stiffnesses, self.storey_heights)}
         if len(n) != 1:
             raise ValueError(
@@ -165,8 +202,10 @@ class ShearBuilding(eqx.Module):
 
         Args:
             n_storeys: Number of storeys (floors above the ground), an int >= 1.
-            storey_height: Height of every storey [m].
-            period: Fundamental period T1 [s].
+            storey_height: Height of every storey [m], at most :data:`MAX_STOREY_HEIGHT`.
+            period: Fundamental period T1 [s]; one above :data:`MAX_PERIOD` and
+                :data:`MAX_PERIOD_PER_STOREY` per storey is run with a
+                ``rockjax.PlausibilityWarning`` (likely a frequency in Hz).
             damping: Damping ratio zeta [-]; default 5 %.
             mass: Mass of every floor [kg]; default :data:`DEFAULT_FLOOR_MASS`.
             damping_model: ``"modal"`` or ``"rayleigh"`` (see :class:`ShearBuilding`).
@@ -191,6 +230,21 @@ class ShearBuilding(eqx.Module):
                 raise ValueError(
                     f"{name} must be a positive finite number in {unit}; got {name}={value}. {hint}"
                 )
+        check_below(
+            "storey_height",
+            concrete(storey_height),
+            MAX_STOREY_HEIGHT,
+            "m",
+            _MM_FIX.format("storey_height"),
+        )
+        t_max = max(MAX_PERIOD, MAX_PERIOD_PER_STOREY * n)
+        if (t1 := concrete(period)) is not None and t1 > t_max:
+            warn_implausible(
+                f"period={float(t1):g} s is long for {n} storeys (buildings run about 0.1 s per "
+                f"storey; above {t_max:g} s only as a frequency in Hz or a unit slip). period "
+                f"is the fundamental period in s: did you give a frequency in Hz? Use "
+                f"period=1/f (e.g. period=0.1 for 10 Hz)."
+            )
         omega1 = 2.0 * jnp.pi / jnp.asarray(period, dtype=jnp.float64)
         ratio = 2.0 * math.sin(math.pi / (2.0 * (2 * n + 1)))  # omega_1 / sqrt(k / m)
         k = jnp.asarray(mass, dtype=jnp.float64) * (omega1 / ratio) ** 2
@@ -420,6 +474,7 @@ def wall_top_motion(
         raise ValueError(
             f"height must be a finite height >= 0 in m above the base; got height={height}."
         )
+    check_below("height", concrete(height), MAX_HEIGHT, "m", _MM_FIX.format("height"))
     motion.check_finite()
     if isinstance(wall_motion, ShearBuilding):
         return _wall_in_building(
@@ -481,6 +536,9 @@ def _check_pairs(wall_motion, motion: GroundMotion) -> list:
         check_scalar(f"wall_motion[{i}] height", zi, "m", "e.g. (3.0, floor1).")
         _check_same_axis(f"wall_motion[{i}]", record, motion)
         heights.append(concrete(zi))
+        check_below(
+            f"wall_motion[{i}] height", heights[-1], MAX_HEIGHT, "m", _MM_FIX.format("height")
+        )
     if all(z is not None for z in heights):
         z = np.array([float(v) for v in heights])
         if not np.all(np.isfinite(z)) or np.any(z <= 0) or np.any(np.diff(z) <= 0):

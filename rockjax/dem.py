@@ -52,7 +52,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._checks import (
+    GAP_HINT,
+    GAP_NEEDS_ONE_SIDED,
     check_choice,
+    check_gap,
+    check_kind,
     check_nonnegative,
     check_positive,
     check_samples,
@@ -226,9 +230,7 @@ def dem_params(
     check_nonnegative(
         "beta", beta, "s", "beta is the stiffness-proportional Rayleigh coefficient.", scalar=True
     )
-    check_nonnegative(
-        "gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.", scalar=True
-    )
+    check_gap(gap, used=mode == "one_sided", unused=GAP_NEEDS_ONE_SIDED, hint=GAP_HINT)
     if phi_deg is None:
         phi_deg = 50.0 if mode == "two_sided" else 30.0
     phi = concrete(phi_deg)
@@ -1198,6 +1200,13 @@ def simulate_dem(
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
     """
+    check_kind(
+        "block",
+        block,
+        (Block, Assembly),
+        "Build one with rj.Block(b=0.25, h=3.0), or a wall of blocks with "
+        "rj.Assembly.stack([...]).",
+    )
     if isinstance(block, Assembly):
         return _simulate_assembly(
             block,

@@ -100,6 +100,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ._checks import (
     check_choice,
+    check_kind,
     check_positive,
     check_samples,
     check_scalar,
@@ -121,6 +122,7 @@ from .response import (
     Response,
 )
 from .three_branch import ThreeBranchFit, ThreeBranchLaw
+from .walls import check_wall_rotation
 
 # loaded on first use (rockjax/_lazy.py): the solver reads diffrax's Tsit5 tableau and its
 # adjoint classes, and the import (with optimistix and lineax) took a quarter of `import rockjax`
@@ -1432,7 +1434,10 @@ def simulate_housner(
             one-sided ``0 < |e| <= 1``, its magnitude is used (default ``|e_1sr|``, Eq. (5)).
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade, ``theta >= 0``).
         theta0: Initial rotation [rad], ``|theta0| < eta`` (``>= 0`` one-sided).
-        theta_dot0: Initial angular velocity [rad/s].
+        theta_dot0: Initial angular velocity [rad/s]. A start faster than
+            ``(2 pi + |theta0|) / (|e| dt_step)`` (``dt_step`` the solver's step), which
+            carries the block past overturning within that step, is run at that speed: it
+            overturns all the same (docs/conventions.md, "Input checks").
         duration: Length of the run [s]; required for free rocking, else default the record's.
             A longer duration appends zeros (free vibration after the record); a shorter one
             truncates it.
@@ -1490,6 +1495,13 @@ def simulate_housner(
     References:
         Housner, G. W. (1963), BSSA 53(2):403-417. The paper, Eqs. (2) and (5).
     """
+    check_kind(
+        "block",
+        block,
+        (Block,),
+        "simulate_housner rocks one rigid block, e.g. rj.Block(b=0.25, h=3.0); run a wall of "
+        "blocks (an rj.Assembly) with rj.simulate_dem or rj.simulate_assembly.",
+    )
     check_choice("mode", mode, MODES)
     one_sided = mode == "one_sided"
     if motion is not None and not isinstance(motion, GroundMotion):
@@ -1613,6 +1625,7 @@ def simulate_housner(
         )
     block = jax.tree.map(lambda x: jnp.asarray(x, dtype=float), block)
     e = jnp.asarray(e, dtype=float)
+    theta_dot0 = _first_step_velocity(theta_dot0, theta0, e, dt_out / n_sub)
     # An eager call checks in Python, after the run: a compiled program with error callbacks
     # (eqx.error_if) cannot go into the persistent compilation cache.
     resp, fault = _simulate(
@@ -1984,6 +1997,7 @@ def _wall_series(wall_motion, motion: GroundMotion, block: Block, n_out: int):
             u, v = np.asarray(u)[:n], np.asarray(v)[:n]
         else:
             u, v = wall_top_motion(wall_motion, motion, block.h)
+    check_wall_rotation(u, block.h)
     # NumPy when concrete: eager jnp ops on a new length would each compile once.
     vals = [concrete(x) for x in (u, v, block.h)]
     xp = jnp if any(x is None for x in vals) else np
@@ -2057,6 +2071,23 @@ def check_restitution(e, one_sided: bool, default: bool) -> None:
         f"e (coefficient of restitution, dimensionless) must satisfy {which}; got e={e}. "
         "Leave e=None for the paper's default (Eq. 2 two-sided, Eq. 5 one-sided)."
     )
+
+
+def _first_step_velocity(theta_dot0, theta0, e, dt_step: float):
+    """``theta_dot0`` [rad/s] limited to ``(2 pi + |theta0|) / (|e| dt_step)``: a start that
+    carries the block through ``2 pi`` rad (past any overturning rotation, ``theta_u <= 2 eta
+    < pi``, even after an impact that keeps ``|e|`` of its speed) within the first solver step
+    ``dt_step`` [s]: gravity and a record of up to 10 g take at most ``11 (p dt_step)^2 / 2``
+    rad of that swing, 1.4 rad at the coarsest step allowed (``p dt_step = 0.5``). A faster
+    start overturns in that step all the same, while the solver's rotation polynomials would
+    overflow to NaN on it (1e6 rad/s)."""
+    vals = [concrete(x) for x in (theta_dot0, theta0, e)]
+    if all(v is not None for v in vals):  # NumPy: an eager jnp op would compile
+        w, th, e_c = vals
+        cap = (2.0 * np.pi + np.abs(th)) / (np.abs(e_c) * dt_step)
+        return np.clip(w, -cap, cap)
+    cap = (2.0 * jnp.pi + jnp.abs(theta0)) / (jnp.abs(e) * dt_step)
+    return jnp.clip(jnp.asarray(theta_dot0, dtype=float), -cap, cap)
 
 
 def _check_theta0(theta0, theta_dot0, block: Block, one_sided: bool) -> None:

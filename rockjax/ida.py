@@ -61,10 +61,19 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from . import _progress
-from ._checks import check_choice, check_nonnegative, check_positive, check_scalar, check_scales
+from ._checks import (
+    GAP_HINT,
+    GAP_NEEDS_ONE_SIDED,
+    check_choice,
+    check_gap,
+    check_nonnegative,
+    check_positive,
+    check_scalar,
+    check_scales,
+)
 from ._lazy import lazy_module
 from ._types import ScalarLike
-from .assembly import Assembly
+from .assembly import ASSEMBLY_GAP_UNUSED, Assembly
 from .block import Block
 from .building import ShearBuilding, wall_top_motion
 from .compilation import persistent_jit
@@ -251,12 +260,6 @@ def run_config(
                 f"an Assembly runs with model='dem' only; got model={model!r}. Pass "
                 "model='dem' with beta=..."
             )
-        if mode == "two_sided" and float(gap) != 0.0:
-            raise ValueError(
-                f"gap={gap} m is the distance to the return walls of a facade and needs "
-                "mode='one_sided'; the top restraint's clearance is the Assembly's own: "
-                "rj.Assembly.stack(blocks, top='restrained', gap=...)."
-            )
         if wall_motion is not None and support_motion is not None:
             if not isinstance(wall_motion, ShearBuilding):
                 raise ValueError(
@@ -296,7 +299,11 @@ def run_config(
                 f"mode={mode!r}. For a parapet on a roof, run the IDA on the roof's motions "
                 "(bldg.floor_motions(record)[-1])."
             )
-    check_nonnegative("gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.")
+    if model != "dem":
+        unused = "the Housner models have no facade gap. Use model='dem', or leave gap=0."
+    else:
+        unused = ASSEMBLY_GAP_UNUSED if isinstance(block, Assembly) else GAP_NEEDS_ONE_SIDED
+    check_gap(gap, used=mode == "one_sided" and model == "dem", unused=unused, hint=GAP_HINT)
     if model == "dem":
         if e is not None:
             raise ValueError(
@@ -330,10 +337,6 @@ def run_config(
             raise ValueError(
                 f"joint (the DEM's contact joint) is not a Housner parameter; got joint={joint!r}. "
                 "Drop it, or use model='dem'."
-            )
-        if gap != 0.0:
-            raise ValueError(
-                f"the Housner model has no facade gap; got gap={gap} m. Use model='dem' or gap=0."
             )
         one_sided = mode == "one_sided"
         if e is not None:

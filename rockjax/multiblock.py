@@ -37,7 +37,10 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from ._checks import (
+    GAP_HINT,
     check_choice,
+    check_gap,
+    check_kind,
     check_nonnegative,
     check_positive,
     check_scalar,
@@ -46,7 +49,7 @@ from ._checks import (
     is_array_pair,
 )
 from ._fusion import computed_once, one_computation, sum_together
-from .assembly import Assembly
+from .assembly import ASSEMBLY_GAP_UNUSED, Assembly
 from .block import Block
 from .building import ShearBuilding
 from .compilation import is_batched, persistent_jit
@@ -77,7 +80,7 @@ from .response import (
     STATUS_OK,
     STATUS_UNSTABLE,
 )
-from .walls import wall_arrays, wall_line, wall_pivot, wall_rise
+from .walls import check_wall_rotation, wall_arrays, wall_line, wall_pivot, wall_rise
 
 SAVE_OPTIONS = ("energy", "forces")
 
@@ -246,14 +249,14 @@ def assembly_params(
         gap: Distance between the back faces and the return wall at rest [m] (one-sided).
     """
     check_choice("mode", mode, MODES)
-    check_nonnegative(
-        "gap", gap, "m", "gap is the facade-to-return-wall distance, e.g. 0.001.", scalar=True
+    check_gap(gap, used=mode == "one_sided", unused=ASSEMBLY_GAP_UNUSED, hint=GAP_HINT)
+    check_kind(
+        "assembly",
+        assembly,
+        (Assembly,),
+        "Build one with rj.Assembly.stack([rj.Block(b=0.23, h=1.5)] * 2); run one block with "
+        "rj.simulate_dem(block, ...).",
     )
-    if not isinstance(assembly, Assembly):
-        raise ValueError(
-            f"assembly must be a rockjax Assembly, e.g. Assembly.stack([rj.Block(b=0.23, "
-            f"h=1.5)] * 2); got {type(assembly).__name__}."
-        )
     if not isinstance(joint, Joint):
         raise ValueError(
             f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
@@ -1657,13 +1660,6 @@ def simulate_assembly(
     for key in save:
         check_choice("save entry", key, SAVE_OPTIONS)
     check_choice("mode", mode, MODES)
-    g = concrete(gap)
-    if mode == "two_sided" and g is not None and np.ndim(g) == 0 and float(g) != 0.0:
-        raise ValueError(
-            f"gap={float(g):.4g} m is the distance to the return walls of a facade and needs "
-            "mode='one_sided'; the top restraint's clearance is the Assembly's own: "
-            "rj.Assembly.stack(blocks, top='restrained', gap=...)."
-        )
     if phi_deg is None:
         phi_deg = 50.0 if mode == "two_sided" else 30.0
     p = assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg, mode=mode, gap=gap)
@@ -1863,6 +1859,7 @@ def _restraint_arrays(pair, storey, assembly: Assembly, ag):
         ag.shape[0],
         "Sample it at motion's dt over the run's duration (pad the record first).",
     )
+    check_wall_rotation(pair[0], assembly.height, "support_motion", ("u", "v"))
     return tuple(jnp.asarray(a, float) for a in pair)
 
 

@@ -21,7 +21,13 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._checks import check_choice, check_nonnegative, check_positive
+from ._checks import (
+    check_choice,
+    check_kind,
+    check_nonnegative,
+    check_positive,
+    warn_implausible,
+)
 from .assembly import Assembly, limit_analysis
 from .block import Block
 from .constants import G
@@ -51,6 +57,11 @@ parameter): halving the rate moves the paper's walls' curves by < 0.13 % of ``la
 RAMP_FRACTION = 0.25
 """Fraction of the pull over which the control point's velocity ramps smoothly from 0 to the
 rate (a sudden start would shake the block)."""
+
+MAX_D_OVER_B = 1.5
+"""Largest ``d_over_b`` a pushover pulls to [-]: the rigid block's capacity is zero at
+``d/b = 1`` and it overturns past it; 1.5 shows half a thickness of the negative branch, and a
+larger value is taken for percent or millimetres (``d_over_b=100``)."""
 
 SETTLE_FRACTION = 0.05
 """Fraction of the pull's duration added before it, over which the overburden is applied
@@ -154,9 +165,10 @@ def pushover(
             default :func:`rockjax.beta_dejong` (critical damping at ``omega_crit``).
         d_over_b: Top displacement to pull to, over ``b`` [-] (the rigid block's ``lambda``
             reaches zero at ``d/b ~ 1``); for an assembly, about this far (the rigid
-            mechanism's travel), ``b`` being block 0's.
-        duration: Time of the pull [s]; default ``PULL_TIME / p``. Longer is more
-            quasi-static.
+            mechanism's travel), ``b`` being block 0's; at most :data:`MAX_D_OVER_B`.
+        duration: Time of the pull [s]; default ``PULL_TIME / p`` (times ``d_over_b`` past
+            1). Longer is more quasi-static; a pull faster than ``PULL_TIME / p`` per unit of
+            ``d_over_b`` (the rate checked) is run with a ``rockjax.PlausibilityWarning``.
         n_out: Number of output samples along the pull.
         joint: The contact joint (:class:`rockjax.Joint`); default the integrated face law.
         phi_deg: Friction angle [deg]; default 50 (parapets) or 30 (facades).
@@ -168,6 +180,12 @@ def pushover(
     Raises:
         ValueError: on invalid input, naming the argument, its unit and the fix.
     """
+    check_kind(
+        "block",
+        block,
+        (Block, Assembly),
+        "Build one with rj.Block(b=0.25, h=3.0) or rj.Assembly.stack([...]).",
+    )
     check_choice("mode", mode, MODES)
     check_positive(
         "d_over_b",
@@ -176,6 +194,13 @@ def pushover(
         "The top displacement to reach over b, e.g. 1.0.",
         scalar=True,
     )
+    if float(d_over_b) > MAX_D_OVER_B:
+        raise ValueError(
+            f"d_over_b={float(d_over_b):g} is above {MAX_D_OVER_B:g}: it is the top displacement "
+            "to reach over b (dimensionless; the rigid block's capacity is zero at d/b = 1 and it "
+            "overturns past it), not percent or millimetres. Use e.g. d_over_b=1.0 (the "
+            "default), or divide by 100 if you gave percent."
+        )
     if not (isinstance(n_out, int) and not isinstance(n_out, bool) and n_out >= 2):
         raise ValueError(f"n_out (output samples) must be an integer >= 2; got n_out={n_out!r}.")
     if isinstance(block, Assembly):
@@ -202,9 +227,7 @@ def pushover(
     if beta is None:
         beta = float(beta_dejong(block))
     p = float(block.p)
-    if duration is None:
-        duration = PULL_TIME / p
-    check_positive("duration", duration, "s", f"e.g. duration={PULL_TIME / p:.3g}.", scalar=True)
+    duration = _pull_duration(duration, d_over_b, p)
     params = dem_params(block, beta, mode=mode, gap=gap, joint=joint, phi_deg=phi_deg)
     dt = stable_dt(block, beta, mode=mode, joint=joint)
     b, h = float(block.b), float(block.h)
@@ -249,6 +272,26 @@ def pushover(
         overburden=jnp.asarray(float(overburden)),
         t=t,
     )
+
+
+def _pull_duration(duration, d_over_b, p: float) -> float:
+    """The pull's duration [s]: by default ``PULL_TIME / p`` per unit of ``d_over_b`` past 1
+    (``PULL_TIME / p`` up to ``d/b = 1``), the rate checked to be quasi-static
+    (docs/pushover.md, "Rate"); a given duration is checked, and a faster pull warned of."""
+    slowest = PULL_TIME / p * max(1.0, float(d_over_b))
+    if duration is None:
+        return slowest
+    check_positive("duration", duration, "s", f"e.g. duration={slowest:.3g}.", scalar=True)
+    # the rate checked: d/b per second at most p / PULL_TIME (the default over d/b = 1)
+    needed = PULL_TIME / p * float(d_over_b)
+    if float(duration) < needed * (1.0 - 1e-9):
+        warn_implausible(
+            f"duration={float(duration):.4g} s pulls to d_over_b={float(d_over_b):g} faster than "
+            f"the rate checked to be quasi-static (d/b per second <= p / {PULL_TIME:g} = "
+            f"{p / PULL_TIME:.4g} 1/s, p = {p:.4g} rad/s): the curve may carry the block's "
+            f"inertia. Give duration >= {needed:.4g} s, or leave duration=None."
+        )
+    return float(duration)
 
 
 def _rigid_theta(d, b, h):
@@ -346,9 +389,7 @@ def _pushover_assembly(assembly, beta, d_over_b, duration, n_out, joint, phi_deg
     # the slowest rocking frequency: a block, or the stack as one block
     mono = Block(b=b0, h=height, length=blocks[0].length)
     p = min([float(b.p) for b in blocks] + [float(mono.p)])
-    if duration is None:
-        duration = PULL_TIME / p
-    check_positive("duration", duration, "s", f"e.g. duration={PULL_TIME / p:.3g}.", scalar=True)
+    duration = _pull_duration(duration, d_over_b, p)
     # one history (rockjax.multiblock, AssemblyParams.single_history)
     params = dataclasses.replace(
         assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg), single_history=True

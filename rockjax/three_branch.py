@@ -38,6 +38,12 @@ _N_ZOOM = 6  # zoom levels: the breakpoints end within ~x_max (4/_N_GRID)^(_N_ZO
 _N_IRLS = 3  # robust reweighting rounds
 
 
+MAX_DELTA_U = 2.0
+"""Largest ``Delta_u`` accepted [-]: the rigid block's ``Delta_u = 1`` is the largest a rocking
+wall reaches (a semi-rigid joint's crushed pivot lowers it), so 2 leaves room for fitted laws;
+above it the Deltas are taken for percent typed for fractions of ``b`` (``Delta_u=100``)."""
+
+
 class ThreeBranchLaw(eqx.Module):
     r"""Three-branch capacity law ``lambda(d/b)`` of a rocking wall (Doherty et al. 2002).
 
@@ -78,6 +84,13 @@ class ThreeBranchLaw(eqx.Module):
             raise ValueError(
                 f"lambda_0 (load multiplier a/g at d = 0, dimensionless) must be positive; got "
                 f"lambda_0={lam0}. For a rectangular block it is b/h."
+            )
+        if du > MAX_DELTA_U:
+            raise ValueError(
+                f"Delta_u={du:g} is above {MAX_DELTA_U:g}: the Deltas are fractions of b "
+                f"(d/b, dimensionless; a rigid block has Delta_u = 1), not percent. Did you "
+                f"give percent? Divide the Deltas by 100 (e.g. Delta_1={d1 / 100:g}, "
+                f"Delta_2={d2 / 100:g}, Delta_u={du / 100:g})."
             )
         if not 0 <= d1 <= d2 < du:
             raise ValueError(
@@ -223,6 +236,13 @@ def _capacity_arrays(capacity) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(
             "capacity.d_over_b and capacity.load_multiplier must be finite (dimensionless); "
             "drop the NaN/inf points first."
+        )
+    if np.max(np.abs(x)) > MAX_DELTA_U:
+        raise ValueError(
+            f"capacity.d_over_b reaches {float(np.max(np.abs(x))):.4g}, above {MAX_DELTA_U:g}: "
+            "it is the top displacement over b (dimensionless; a rigid block's capacity is zero "
+            "at 1), not percent. Divide it by 100 if it is in percent, or drop the points past "
+            f"d/b = {MAX_DELTA_U:g}."
         )
     order = np.argsort(np.abs(x), kind="stable")
     return np.abs(x)[order], y[order]

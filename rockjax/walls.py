@@ -22,6 +22,11 @@ from ._checks import check_series_pair, concrete, is_array_pair
 from .compilation import is_traced
 from .motion import GroundMotion
 
+MAX_WALL_ROTATION = 0.3
+"""Largest wall rotation ``|u_top| / H`` accepted [rad]: :func:`wall_line` is accurate to 1e-7
+only up to 0.3 rad, and no standing building drifts more than a few percent; above it the
+displacements are taken for millimetres typed for metres (5 for 5 mm at 3 m is 1.7 rad)."""
+
 
 def wall_pivot(theta_w, toe, heel):
     """What belongs to the wall's pivot: ``toe`` for ``theta_w > 0`` [rad], ``heel`` otherwise
@@ -63,6 +68,31 @@ def wall_rise(x_pivot, rate, x):
     ``rate (x_pivot - x)``. A facade riding on the wall turns about the same corner at the same
     rate: no slip along the wall."""
     return rate * (x_pivot - x)
+
+
+def check_wall_rotation(u_top, height, arg: str = "wall_motion", names=("u_top", "v_top")):
+    """Refuse a concrete displacement history ``u_top`` [m] of a wall (or of a top restraint)
+    relative to the base whose rotation ``|u_top| / height`` exceeds
+    :data:`MAX_WALL_ROTATION` (a unit slip: millimetres for metres).
+
+    Args:
+        u_top: The displacement history [m].
+        height: The height it is taken at [m].
+        arg: The argument it came in, for the message.
+        names: The names of the displacement and velocity series, for the message.
+    """
+    u, h = concrete(u_top), concrete(height)
+    if u is None or h is None or u.size == 0:
+        return
+    peak = float(np.max(np.abs(u)))
+    rot = peak / float(h)
+    if rot > MAX_WALL_ROTATION:
+        raise ValueError(
+            f"{arg}: {names[0]} [m] reaches {peak:.4g} m at the height {float(h):.4g} m, a "
+            f"rotation |{names[0]}| / H = {rot:.3g} rad above {MAX_WALL_ROTATION:g} rad (the "
+            "moving wall's model holds below it; buildings drift a few percent). rockjax works "
+            f"in metres: did you give millimetres? Divide {names[0]} and {names[1]} by 1000."
+        )
 
 
 def wall_arrays(wall_motion, motion, height, ag, dt_out, n_record):
@@ -118,6 +148,7 @@ def wall_arrays(wall_motion, motion, height, ag, dt_out, n_record):
         n_rec,
         "Sample the wall at the record's dt.",
     )
+    check_wall_rotation(u, height)
     xp = np if concrete(u) is not None and concrete(v) is not None and xp is np else jnp
     u, v = xp.asarray(u, float), xp.asarray(v, float)
     if n != n_rec:  # a longer duration: the wall holds its last position; shorter: truncated

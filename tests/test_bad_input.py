@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import types
 from collections.abc import Callable
 
 import equinox as eqx
@@ -100,6 +101,8 @@ BLOCK_CASES = [
     _case("b-array", lambda: rj.Block(b=np.array([0.2, 0.3]), h=3.0), r"\bb\b", r"vmap"),
     _case("nu-array", lambda: rj.Block(b=0.25, h=3.0, nu=[0.2, 0.25]), r"\bnu\b", r"vmap"),
     _case("b-array-of-text", lambda: rj.Block(b=np.array(["0.25"]), h=3.0), r"\bb\b", "number"),
+    _case("b-1e-300", lambda: rj.Block(b=1e-300, h=1.0), r"\bb\b.*\bm\b", r"in metres.*b=0\.25"),
+    _case("h-1e-300", lambda: rj.Block(b=0.25, h=1e-300), r"\bh\b.*\bm\b", r"in metres"),
 ]
 
 
@@ -476,6 +479,45 @@ SIMULATOR_CASES = [
         r"save_dt=0\.002|e\.g\.",
     ),
     _case("stable_dt-beta-negative", lambda: rj.stable_dt(BLOCK, -1.0), r"\bbeta\b", r"Rayleigh"),
+    _case("dem-block-none", lambda: _D(None, GM), r"\bblock\b.*None", r"rj\.Block\(b=0\.25"),
+    _case("dem-block-ndarray", lambda: _D(np.ones(2), GM), r"\bblock\b", r"rj\.Block\("),
+    _case("housner-block-none", lambda: _H(None, GM), r"\bblock\b.*None", r"rj\.Block\("),
+    _case(
+        "housner-assembly",
+        lambda: _H(rj.Assembly.stack([BLOCK, BLOCK]), GM),
+        r"\bblock\b.*Assembly",
+        r"rj\.simulate_dem",
+    ),
+    _case(
+        "assembly-of-a-block",
+        lambda: rj.simulate_assembly(BLOCK, GM),
+        r"\bassembly\b.*Block",
+        r"rj\.simulate_dem\(block",
+    ),
+    _case(
+        "dem-gap-two-sided",
+        lambda: _D(BLOCK, GM, gap=1e-3),
+        r"\bgap\b.*\bm\b.*ignored",
+        r"mode='one_sided'",
+    ),
+    _case(
+        "stable_dt-gap-two-sided",
+        lambda: rj.stable_dt(BLOCK, 2e-3, gap=1e-3),
+        r"\bgap\b.*ignored",
+        r"mode='one_sided'",
+    ),
+    _case(
+        "assembly-gap-two-sided",
+        lambda: rj.simulate_assembly(rj.Assembly.stack([BLOCK, BLOCK]), GM, gap=1e-3),
+        r"\bgap\b.*ignored",
+        r"mode='one_sided'.*top='restrained'",
+    ),
+    _case(
+        "housner-theta_dot0-nan",
+        lambda: _H(BLOCK, GM, theta_dot0=NAN),
+        r"\btheta_dot0\b.*rad/s",
+        r"finite",
+    ),
 ]
 
 
@@ -603,6 +645,205 @@ def test_dem_nan_in_record_names_the_record():
         _D(BLOCK, _nan_record())
 
 
+# ----------------------------------------------------------------------------- units, geometry
+# A value in another unit (millimetres, Hz, percent) or outside a model's validity is refused
+# when no reading of it is right, and run with a PlausibilityWarning naming the fix when it
+# could still be meant; a wrong kind of body is refused naming what to pass.
+
+_BLDG = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.2)
+_WALL = rj.Assembly.stack([BLOCK, BLOCK])
+_HELD = rj.Assembly.stack([BLOCK, BLOCK], top="restrained", gap=1e-3)
+_MM = 5.0 * np.sin(np.linspace(0.0, np.pi, GM.n))  # a wall's 5 mm typed as 5 (m)
+
+
+def _capacity_in_percent():
+    x = np.linspace(0.0, 95.0, 20)  # d/b in percent
+    return types.SimpleNamespace(d_over_b=x, load_multiplier=(0.25 / 1.5) * (1.0 - x / 100.0))
+
+
+UNIT_CASES = [
+    _case(
+        "storey_height-mm",
+        lambda: rj.ShearBuilding.uniform(n_storeys=3, storey_height=3000.0, period=0.3),
+        r"\bstorey_height\b.*\bm\b",
+        r"millimetres.*divide by 1000",
+    ),
+    _case(
+        "storey_heights-mm",
+        lambda: rj.ShearBuilding(masses=[1e5], stiffnesses=[1e8], storey_heights=[3000.0]),
+        r"\bstorey_heights\b.*\bm\b",
+        r"millimetres.*divide by 1000",
+    ),
+    _case(
+        "wall_top_motion-height-mm",
+        lambda: rj.wall_top_motion(_BLDG, GM, height=4500.0),
+        r"\bheight\b.*\bm\b",
+        r"millimetres",
+    ),
+    _case(
+        "wall_top_motion-pair-height-mm",
+        lambda: rj.wall_top_motion([(3000.0, GM)], GM, height=3.0),
+        r"wall_motion\[0\] height.*\bm\b",
+        r"millimetres",
+    ),
+    _case(
+        "dem-wall_motion-mm",
+        lambda: _D(BLOCK, GM, mode="one_sided", wall_motion=(_MM, np.zeros(GM.n))),
+        r"wall_motion.*\bu_top\b.*\bm\b",
+        r"millimetres.*divide u_top and v_top by 1000",
+    ),
+    _case(
+        "housner-wall_motion-mm",
+        lambda: _H(BLOCK, GM, mode="one_sided", wall_motion=(_MM, np.zeros(GM.n))),
+        r"wall_motion.*\bu_top\b.*\bm\b",
+        r"millimetres",
+    ),
+    _case(
+        "assembly-wall_motion-mm",
+        lambda: rj.simulate_assembly(
+            _WALL, GM, mode="one_sided", wall_motion=(_MM, np.zeros(GM.n))
+        ),
+        r"wall_motion.*\bu_top\b.*\bm\b",
+        r"millimetres",
+    ),
+    _case(
+        "support_motion-mm",
+        lambda: rj.simulate_assembly(_HELD, GM, support_motion=(_MM, np.zeros(GM.n))),
+        r"support_motion.*\bu\b.*\bm\b",
+        r"millimetres",
+    ),
+    _case(
+        "three-branch-percent",
+        lambda: rj.ThreeBranchLaw(lambda_0=0.08, Delta_1=4.0, Delta_2=20.0, Delta_u=90.0),
+        r"\bDelta_u\b.*fractions of b",
+        r"percent.*divide.*by 100.*Delta_u=0\.9",
+    ),
+    _case(
+        "three-branch-fit-percent",
+        lambda: rj.fit_three_branch(_capacity_in_percent()),
+        r"\bd_over_b\b",
+        r"percent.*divide it by 100",
+    ),
+    _case(
+        "pushover-d_over_b-percent",
+        lambda: rj.pushover(BLOCK, d_over_b=100.0),
+        r"\bd_over_b\b.*over b",
+        r"d_over_b=1\.0|divide by 100",
+    ),
+    _case("pushover-block-none", lambda: rj.pushover(None), r"\bblock\b.*None", r"rj\.Block\("),
+    _case(
+        "pushover-gap-two-sided",
+        lambda: rj.pushover(BLOCK, gap=1e-3),
+        r"\bgap\b.*ignored",
+        r"mode='one_sided'",
+    ),
+    _case(
+        "stack-one-block",
+        lambda: rj.Assembly.stack(BLOCK),
+        r"\bblocks\b.*Block",
+        r"Assembly\.stack\(\[block\]\)",
+    ),
+    _case("stack-none", lambda: rj.Assembly.stack(None), r"\bblocks\b.*None", r"\[block\]"),
+    _case(
+        "stack-free-top-gap",
+        lambda: rj.Assembly.stack([BLOCK, BLOCK], gap=1e-3),
+        r"\bgap\b.*\bm\b.*ignored",
+        r"top='restrained'",
+    ),
+    _case(
+        "stack-gap-negative",
+        lambda: rj.Assembly.stack([BLOCK, BLOCK], top="restrained", gap=-1e-3),
+        r"\bgap\b.*\bm\b",
+        r"e\.g\. 0\.002",
+    ),
+    _case(
+        "collapse_multiplier-block",
+        lambda: rj.collapse_multiplier(BLOCK),
+        r"\bassembly\b.*Block",
+        r"Assembly\.stack\(\[block\]\)",
+    ),
+    _case(
+        "collapse_multiplier-none",
+        lambda: rj.collapse_multiplier(None),
+        r"\bassembly\b.*None",
+        r"b/h",
+    ),
+]
+
+
+@pytest.mark.parametrize("case", UNIT_CASES)
+def test_units_and_kinds_refused(case: Bad):
+    _assert_refused(case)
+
+
+# (call, name regex, fix regex): run, with a warning that names the argument and the fix
+WARN_CASES = [
+    pytest.param(
+        lambda: rj.ShearBuilding.uniform(n_storeys=3, storey_height=3.0, period=10.0),
+        r"\bperiod\b.*\bs\b",
+        r"Hz.*period=0\.1 for 10 Hz",
+        id="period-in-hz",
+    ),
+    pytest.param(
+        lambda: rj.stable_dt(BLOCK, 2e-3, mode="one_sided", gap=1.0),
+        r"\bgap\b.*\bm\b",
+        r"millimetres.*gap=0\.001 for 1 mm",
+        id="facade-gap-mm",
+    ),
+    pytest.param(
+        lambda: rj.Assembly.stack([BLOCK, BLOCK], top="restrained", gap=2.0),
+        r"\bgap\b.*\bm\b",
+        r"millimetres",
+        id="restraint-gap-mm",
+    ),
+    pytest.param(
+        lambda: rj.pushover(BLOCK, duration=1.0, n_out=20),
+        r"\bduration\b.*\bs\b",
+        r"duration >= 3\d\.\d+ s|duration=None",
+        id="pushover-too-fast",
+    ),
+]
+
+
+@pytest.mark.parametrize("call, name, fix", WARN_CASES)
+def test_implausible_values_warned(call, name, fix):
+    with pytest.warns(rj.PlausibilityWarning) as record:
+        call()
+    messages = [str(w.message) for w in record if issubclass(w.category, rj.PlausibilityWarning)]
+    _assert_clear(messages[0], name, fix)
+
+
+def test_plausible_values_run_quietly():
+    """The limits leave usual values alone (the suite turns any warning into an error): a
+    3-storey building at 2 s (flexible, or base-isolated) and a 30-storey one at 10 s, a 5 cm
+    facade gap, a restraint clearance of 2 cm, a block of 5 mm (a thin specimen), a
+    three-branch law with Delta_u = 1.2 (past the rigid block's 1)."""
+    rj.ShearBuilding.uniform(n_storeys=3, storey_height=3.0, period=2.0)
+    rj.ShearBuilding.uniform(n_storeys=30, storey_height=3.5, period=10.0)
+    rj.stable_dt(BLOCK, 2e-3, mode="one_sided", gap=0.05)
+    rj.Assembly.stack([BLOCK, BLOCK], top="restrained", gap=0.02)
+    rj.Block(b=0.005, h=0.03)
+    rj.ThreeBranchLaw(lambda_0=0.1, Delta_1=0.05, Delta_2=0.3, Delta_u=1.2)
+
+
+def test_huge_initial_velocity_overturns():
+    """A start far faster than the solver resolves overturns (``overturned=True``, status OK,
+    a finite history) instead of failing as non-finite. Independent check that it must: the
+    start's kinetic energy ``I_O w^2 / 2`` exceeds the climb to the overturning position,
+    ``m g R (1 - cos eta)``, a million-fold, far beyond what the record's 0.1 g can take."""
+    climb = float(BLOCK.m * 9.80665 * BLOCK.R * (1.0 - np.cos(BLOCK.eta)))
+    for w in (1e6, 1e12, -1e200):
+        assert 0.5 * float(BLOCK.I_O) * min(w * w, 1e300) > 1e6 * climb
+        resp = _H(BLOCK, GM, theta_dot0=w)
+        assert bool(resp.overturned), w
+        assert int(resp.status) == STATUS_OK, w
+        theta = np.asarray(resp.theta)
+        assert np.all(np.isfinite(theta)), w
+        assert np.sign(theta[-1]) == np.sign(w), w
+    traced = jax.jit(lambda w: _H(BLOCK, GM, theta_dot0=w, throw=False))(jnp.asarray(1e9))
+    assert bool(traced.overturned) and int(traced.status) == STATUS_OK
+
+
 # ----------------------------------------------------------------------------- IDA
 
 
@@ -689,6 +930,7 @@ IDA_CASES = [
         r"\be\b.*-0\.5",
         r"0 < e <= 1",
     ),
+    _case("dem-gap-two-sided", lambda: _ida(gap=1e-3), r"\bgap\b.*ignored", r"mode='one_sided'"),
 ]
 
 
@@ -919,6 +1161,18 @@ CALIBRATION_CASES = [
         "fit_beta-max_iter-0", lambda: rj.fit_beta(_CAL, 0.95, max_iter=0), r"\bmax_iter\b", "40"
     ),
     _case("fit_beta-n_grid-1", lambda: rj.fit_beta(_CAL, 0.95, n_grid=1), r"\bn_grid\b", "256"),
+    _case(
+        "fit_beta-gap-negative",
+        lambda: rj.fit_beta(_CAL, mode="one_sided", gap=-1e-3),
+        r"\bgap\b.*\bm\b",
+        r"e\.g\. 0\.001",
+    ),
+    _case(
+        "fit_beta-gap-two-sided",
+        lambda: rj.fit_beta(_CAL, 0.95, gap=1e-3),
+        r"\bgap\b.*ignored",
+        r"mode='one_sided'",
+    ),
     _case("fit_e-beta-negative", lambda: rj.fit_e(_CAL, -1e-3), r"\bbeta\b", r">= 0"),
     _case("fit_e-beta-text", lambda: rj.fit_e(_CAL, "1e-3"), r"\bbeta\b", r"quotes"),
     _case(

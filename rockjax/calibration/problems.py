@@ -20,7 +20,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import metrics
-from .._checks import check_choice, check_positive, check_scalar
+from .._checks import (
+    GAP_HINT,
+    GAP_NEEDS_ONE_SIDED,
+    check_choice,
+    check_gap,
+    check_positive,
+    check_scalar,
+)
 from ..block import Block
 from ..compilation import persistent_jit
 from ..contact import Joint
@@ -324,6 +331,7 @@ def build_problem(
             f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
         )
     one_sided = mode == "one_sided"
+    check_gap(gap, used=one_sided, unused=GAP_NEEDS_ONE_SIDED, hint=GAP_HINT)
     defaulted = target is None
     if defaulted:
         target = default_target(mode)
