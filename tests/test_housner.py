@@ -316,6 +316,35 @@ def test_duration_pads_the_record_with_zeros(block):
     np.testing.assert_allclose(longer.theta[:101], short.theta, rtol=SAME_RTOL, atol=1e-15)
 
 
+@pytest.mark.parametrize("mode", ["two_sided", "one_sided"])
+def test_grad_of_a_peak_between_samples_matches_finite_differences(block, mode):
+    # A one-sine cycle just above the uplift threshold (1.05 g tan(eta)), sampled every 20 ms:
+    # the block makes a short flight whose peak lies between two samples (two-sided: 15 %
+    # above the largest sample), so theta_max comes from a step's dense output; its turning
+    # point carries no derivative, which is right only where the dense output's slope is zero.
+    sign = -1.0 if mode == "one_sided" else 1.0  # one-sided: toward the uplift of theta > 0
+    thr = G * math.tan(float(block.eta))
+    gm = rj.GroundMotion.sine_cycle(1.05 * sign * thr, period=0.3, dt=0.02, duration=1.0)
+    args = (1.0, float(block.h))
+
+    def peak(scale, h):
+        return rj.simulate_housner(rj.Block(b=block.b, h=h), gm.scaled(scale), mode=mode).theta_max
+
+    resp = rj.simulate_housner(block, gm, mode=mode)
+    assert 0.0 < float(resp.theta_max) < 1e-3 * float(block.eta)
+    if mode == "two_sided":
+        assert float(resp.theta_max) > 1.1 * np.abs(np.asarray(resp.theta)).max()
+    grads = jax.grad(peak, argnums=(0, 1))(*args)
+    for i, grad in enumerate(grads):
+
+        def along(x, i=i):
+            return peak(*args[:i], x, *args[i + 1 :])
+
+        fd = float(_central_difference(along, args[i]))
+        assert abs(fd) > 1e-6 * float(block.eta)
+        np.testing.assert_allclose(float(grad), fd, rtol=FD_RTOL)
+
+
 # ----------------------------------------------------------------------------- one-sided
 
 
