@@ -661,10 +661,10 @@ def _dense_peak(theta0, theta1, h, k_th):
     (:func:`tsit5_dense`, ``x = (t - t0) / h``; ``k_th``: the seven stage slopes of theta).
 
     ``|P|`` is sampled at ``x = 0, 1/4, 1/2, 3/4, 1``; Newton steps on ``P' = 0`` from the best
-    sample, kept within a quarter of it and taken only toward a maximum of ``|P|``
-    (``P P'' < 0``), find the turning point. The location carries no derivative: at a turning
-    point ``P' = 0``, so the peak's derivative is ``P``'s at fixed ``x`` (and at an end, the end
-    state's), which is what ``grad`` gets.
+    sample, kept within a quarter of it and taken only toward a maximum of ``|P|`` (``P''`` of
+    the sign opposite to ``P`` at the best sample), find the turning point. The location
+    carries no derivative: at a turning point ``P' = 0``, so the peak's derivative is ``P``'s
+    at fixed ``x`` (and at an end, the end state's), which is what ``grad`` gets.
     """
     dense = tsit5_dense()
     c1, c2, c3, c4 = (
@@ -674,20 +674,22 @@ def _dense_peak(theta0, theta1, h, k_th):
     def value(x, c1=c1, c2=c2, c3=c3, c4=c4):
         return (((c4 * x + c3) * x + c2) * x + c1) * x + theta0
 
-    best_x, best = jnp.zeros_like(theta0), jnp.abs(theta0)
+    best_x, best_p = jnp.zeros_like(theta0), theta0
     for x in (0.25, 0.5, 0.75, 1.0):
-        v = jnp.abs(theta1) if x == 1.0 else jnp.abs(value(x))
-        better = v > best
-        best_x, best = _where(better, x, best_x), _where(better, v, best)
-    a1, a2, a3, a4, a0 = (jax.lax.stop_gradient(v) for v in (c1, c2, c3, c4, theta0))
+        p = theta1 if x == 1.0 else value(x)
+        better = jnp.abs(p) > jnp.abs(best_p)
+        best_x, best_p = _where(better, x, best_x), _where(better, p, best_p)
+    # P' and P'' (no derivative: the location only)
+    a1, a2, a3, a4 = (jax.lax.stop_gradient(v) for v in (c1, 2.0 * c2, 3.0 * c3, 4.0 * c4))
+    b2, b3 = 3.0 * a4, 2.0 * a3
+    sign = _where(best_p < 0, -1.0, 1.0)
     lo, hi = jnp.maximum(best_x - 0.25, 0.0), jnp.minimum(best_x + 0.25, 1.0)
     x = best_x
     for _ in range(_N_PEAK_NEWTON):
-        p = (((a4 * x + a3) * x + a2) * x + a1) * x + a0
-        dp = ((4.0 * a4 * x + 3.0 * a3) * x + 2.0 * a2) * x + a1
-        ddp = (12.0 * a4 * x + 6.0 * a3) * x + 2.0 * a2
-        x = _where(p * ddp < 0, _clip(x - dp / _safe(ddp), lo, hi), x)
-    return jnp.maximum(best, jnp.abs(value(x)))
+        dp = ((a4 * x + a3) * x + a2) * x + a1
+        ddp = (b2 * x + b3) * x + a2
+        x = _where(sign * ddp < 0, _clip(x - dp / _safe(ddp), lo, hi), x)
+    return jnp.maximum(jnp.abs(best_p), jnp.abs(value(x)))
 
 
 def _safe(x):
