@@ -26,11 +26,6 @@ import pathlib
 import sys
 import time
 
-import jax
-import numpy as np
-
-import rockjax as rj
-
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "tests"))
 from test_housner_events import (  # noqa: E402
     DT,
@@ -40,7 +35,7 @@ from test_housner_events import (  # noqa: E402
     PEAK_RTOL,
     load_near_records,
     near_reference,
-    near_threshold_record,
+    near_rockjax,
 )
 
 RESULTS = pathlib.Path(__file__).parent / "results"
@@ -63,25 +58,6 @@ def candidates(keys):
     return out
 
 
-def rockjax_peaks(recs, cases, dt):
-    """``(max|theta|/eta, overturned, status)`` per case at solver step ``dt``, batched."""
-    out = {}
-    for mode in ("two_sided", "one_sided"):
-        sel = [c for c in cases if c[3] == mode]
-        ag = np.stack([near_threshold_record(recs[c[0]], *c[1:5]) for c in sel])
-
-        def one(ag, b, h, mode=mode):
-            r = rj.simulate_housner(
-                rj.Block(b=b, h=h), rj.GroundMotion(ag=ag, dt=DT), mode=mode, dt=dt, throw=False
-            )
-            return r.theta_max / r.eta, r.overturned, r.status
-
-        b, h = (np.array([c[i] for c in sel]) for i in (1, 2))
-        res = [np.asarray(x) for x in jax.vmap(one)(ag, b, h)]
-        out.update({c: tuple(x[i].item() for x in res) for i, c in enumerate(sel)})
-    return out
-
-
 def main():
     recs = load_near_records()
     cases = candidates(recs)
@@ -100,7 +76,7 @@ def main():
         )
         cache_path.write_text(json.dumps(cache, indent=0))
         print(f"  reference {i + 1}/{len(cases)} ({time.time() - t0:.0f} s)", flush=True)
-    runs = {dt: rockjax_peaks(recs, cases, dt) for dt in (None, DT / 4)}
+    runs = {dt: near_rockjax(recs, cases, dt) for dt in (None, DT / 4)}
     rows, kept = [], []
     for case in cases:
         ref = cache["|".join(map(str, case))]
