@@ -28,8 +28,8 @@ Engineering demand parameters, per run:
   maximum over every step, ``extras["d_max"] / b``. Housner: from the peak rotation with the
   rigid-block formula ``|d| = b/2 (1 - cos theta_max) + h sin theta_max``, which is the same
   as ``max|Response.d|`` over the run because ``|d|`` grows with ``|theta|`` on
-  ``[0, pi/2]``, but also includes the peaks between samples (``theta_max`` is refined
-  between step ends).
+  ``[0, pi/2]``, but also includes the peaks between samples (``theta_max`` is the maximum
+  of each solver step's dense output).
 * ``max_theta_over_eta``: ``theta_max / eta``.
 * ``collapse``: overturned (``|theta| > eta`` moving outward; the state is frozen from then
   on, so the two EDPs above are then the values where the run stopped, just past ``eta``).

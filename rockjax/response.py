@@ -43,7 +43,11 @@ class Response(eqx.Module):
         overturned: True if ``|theta|`` passed ``eta`` while moving outward (with a three-branch
             ``law``: the law's zero-capacity rotation); the state is frozen from then on.
         status: 0 if the run is valid, else a code in ``rockjax.response.STATUS_MESSAGES``.
-        theta_max: Largest ``|theta|`` reached over the run, including between samples [rad].
+        theta_max: Largest ``|theta|`` reached over the run, including between samples [rad]:
+            DEM, the running maximum over every substep; Housner, the maximum of each solver
+            step's Tsit5 dense output, which finds a turning point inside a step, or a flight
+            shorter than one, at the solver's accuracy (docs/verification.md, "Housner",
+            "Peaks between samples").
         eta: Slenderness angle of the block [rad], to normalise ``theta``.
         b: Block thickness [m], to normalise ``d``.
         energy: Total mechanical energy [J] (DEM: kinetic + potential + contact springs;
