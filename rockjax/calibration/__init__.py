@@ -45,6 +45,8 @@ the verdict), :mod:`~rockjax.calibration.fit` (the public fits).
 """
 
 from .fit import GAP_TOL as GAP_TOL
+from .fit import HISTORY_STEP as HISTORY_STEP
+from .fit import LOSSES as LOSSES
 from .fit import METHODS as METHODS
 from .fit import e_effective as e_effective
 from .fit import fit_beta as fit_beta
@@ -60,11 +62,14 @@ from .problems import default_target as default_target
 from .problems import dem_run as dem_run
 from .problems import history_loss as history_loss
 from .problems import history_problem as history_problem
+from .problems import history_stat as history_stat
+from .problems import history_stat_batch as history_stat_batch
 from .problems import housner_reference as housner_reference
 from .problems import last_compared_time as last_compared_time
 from .problems import problem as problem
 from .problems import stats as stats
 from .problems import stats_batch as stats_batch
+from .problems import window_error as window_error
 from .result import BOUNCE_BANDS as BOUNCE_BANDS
 from .result import BOUNCE_FRACTIONS as BOUNCE_FRACTIONS
 from .result import E_TOL as E_TOL
@@ -77,6 +82,7 @@ from .result import bounces_missed as bounces_missed
 from .result import e_missed as e_missed
 from .result import history_missed as history_missed
 from .result import history_peak_gap as history_peak_gap
+from .result import minimum_missed as minimum_missed
 from .result import verdict as verdict
 
 __all__ = [
@@ -88,9 +94,11 @@ __all__ = [
     "EProblem",
     "FACADE_BETA_MAX_HCRIT",
     "GAP_TOL",
+    "HISTORY_STEP",
     "HISTORY_TOL",
     "HistoryFit",
     "HistoryProblem",
+    "LOSSES",
     "METHODS",
     "MIN_ENERGY_RATIO",
     "MODES",
@@ -108,10 +116,14 @@ __all__ = [
     "history_missed",
     "history_peak_gap",
     "history_problem",
+    "history_stat",
+    "history_stat_batch",
     "housner_reference",
     "last_compared_time",
+    "minimum_missed",
     "problem",
     "stats",
     "stats_batch",
     "verdict",
+    "window_error",
 ]
