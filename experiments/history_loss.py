@@ -7,7 +7,7 @@ from the bounce-loss optimum), and the history error on a grid of ``n`` points o
 ``[lo, hi] x`` the bounce-loss optimum (``rj.calibration.history_stat_batch``, the fit's own
 statistic): the grid's global minimum and the grid's local minimum nearest the start.
 
-    nice python experiments/history_loss.py [--out experiments/results] [--n 31]
+    nice python experiments/history_loss.py [--out experiments/results] [--n 46]
 
 Writes history_loss.csv (the grids) and history_loss.json (the summary quoted in
 docs/calibration.md, "The history error as the loss"), and prints it.
@@ -88,9 +88,9 @@ def case(b, h, mode, n, lo, hi, rows):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="experiments/results")
-    ap.add_argument("--n", type=int, default=31, help="grid points per block")
-    ap.add_argument("--lo", type=float, default=0.7, help="grid start / bounce-loss beta")
-    ap.add_argument("--hi", type=float, default=1.3, help="grid end / bounce-loss beta")
+    ap.add_argument("--n", type=int, default=46, help="grid points per block")
+    ap.add_argument("--lo", type=float, default=0.5, help="grid start / bounce-loss beta")
+    ap.add_argument("--hi", type=float, default=2.0, help="grid end / bounce-loss beta")
     args = ap.parse_args()
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

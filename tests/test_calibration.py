@@ -332,10 +332,10 @@ def test_verdict_rule():
 
 def test_target_e_finds_its_own_bracket_and_refuses_only_outside_the_range():
     """At the default beta_max the facade's bounces vanish long before (~2.5 beta_Hcrit): the
-    fit cuts its bracket where the DEM still bounces, and refuses an e below the reachable
+    fit cuts its bracket where the DEM still bounces, and refuses an e outside the reachable
     range naming it. The range's ends are the DEM's own e, measured here with scipy's peaks."""
     with pytest.raises(ValueError, match=r"spans e = 0\.\d+ \(beta = .* s\) to 0\.\d+") as err:
-        rj.fit_beta(FACADE, e=0.15, target="e", mode="one_sided", method="root")
+        rj.fit_beta(FACADE, e=0.99, target="e", mode="one_sided", method="root")
     assert "keeps no bounce" in str(err.value) and "widen beta_max" not in str(err.value)
     fit = rj.fit_beta(FACADE, e=E_ISR, target="e", mode="one_sided", method="root")
     e_lo, e_hi = fit.e_range
@@ -351,6 +351,17 @@ def test_target_e_finds_its_own_bracket_and_refuses_only_outside_the_range():
         assert abs(e_here - E_ISR) <= calibration.E_TOL + PEAK_TOL
 
 
+STEP = 0.01  # relative beta step of the local parabola that checks a minimum
+MIN_BETA_RTOL = 0.01  # a fit's beta vs the vertex of that parabola (the grid benchmark's is 2 %)
+
+
+def _vertex(y_lo, y_mid, y_hi):
+    """The vertex of the parabola through (1 - STEP, 1, 1 + STEP) in units of the middle beta;
+    +-inf where it is not a minimum (no curvature or a maximum)."""
+    den = y_lo - 2.0 * y_mid + y_hi
+    return 1.0 + 0.5 * STEP * (y_lo - y_hi) / den if den > 0 else math.inf
+
+
 @pytest.fixture(scope="module")
 def facade_fit():
     return rj.fit_beta(FACADE, mode="one_sided")
@@ -358,14 +369,15 @@ def facade_fit():
 
 def test_facade_default_is_the_best_match_and_reports_the_bands(facade_fit):
     """The paper chose the beta that best matched the measured bounce pattern: the default
-    facade fit converges to the minimum of its loss (here: no smaller loss 1 % either side),
+    facade fit converges to the minimum of its loss (here: within 1 % of the vertex of the
+    parabola through the loss 1 % either side),
     and target_met says whether each e_exp (scipy peaks here) lies in its band. In this DEM no
     beta meets all three (docs/calibration.md, "Facades"): it used to report NOT converged."""
     fit = facade_fit
     assert fit.converged and fit.reason == ""
     p = calibration.problem(FACADE, mode="one_sided")
-    side = np.asarray(calibration.stats_batch(p, fit.beta * np.array([0.99, 1.01]))[0])
-    assert np.all(fit.loss <= side)
+    side = np.asarray(calibration.stats_batch(p, fit.beta * np.array([1 - STEP, 1 + STEP]))[0])
+    assert abs(_vertex(side[0], fit.loss, side[1]) - 1.0) <= MIN_BETA_RTOL
     amp = _bounces(fit.dem, "one_sided")[:3]
     eta, th0 = float(FACADE.eta), abs(float(fit.dem.theta[0]))
     e_here = rj.relations.e_exp(amp, th0, eta, np.arange(1, amp.size + 1)) / E_ISR
@@ -397,10 +409,10 @@ def test_history_loss_input_checks():
 @pytest.mark.slow
 def test_history_loss_finds_the_nearby_minimum_on_a_facade():
     """loss='history' from the bounce-loss optimum ends at a local minimum of the history
-    error against one-sided Housner with |e_ISR|: no smaller error 1 % either side (measured
-    here with history_stat_batch), and no larger than at its start."""
+    error against one-sided Housner with |e_ISR|: within 1 % of the vertex of the parabola
+    through the error 1 % either side (history_stat_batch)."""
     fit = rj.fit_beta(FACADE, mode="one_sided", loss="history")
     assert fit.converged and fit.loss_kind == "history"
     p = calibration.problem(FACADE, E_ISR, target="e", mode="one_sided")
-    side = np.asarray(calibration.history_stat_batch(p, fit.beta * np.array([0.99, 1.01])))
-    assert np.all(fit.loss <= side + 1e-12)
+    side = np.asarray(calibration.history_stat_batch(p, fit.beta * np.array([1 - STEP, 1 + STEP])))
+    assert abs(_vertex(side[0], fit.loss, side[1]) - 1.0) <= MIN_BETA_RTOL

@@ -27,14 +27,17 @@ points) and ``"root"`` (Illinois false position on the signed log-energy gap, mo
 
 **What a result promises.** Before any optimisation, a target whose Housner reference has no
 bounce keeping :data:`MIN_ENERGY_RATIO` of its release energy (the loss would be identically
-zero), ``n_bounces < 1``, a DEM that keeps no such bounce at an end of the search (the
-reachable range is undefined) and an unreachable target raise ``ValueError`` with the fix.
-After it, every method (``lbfgs``, its false-position finish, ``grid``, ``root``; and
-:func:`fit_e`) reports ``converged=True`` only if the target is met within a stated tolerance
-(:data:`E_TOL` on the DEM's own ``e``, :data:`BOUNCE_BANDS` for facades), measured on the DEM's
-saved history by a NumPy peak finder independent of the loss, with every number finite;
-otherwise ``converged=False`` and ``reason`` says what was missed. The mode's default target
-(:func:`default_target`) is ``"bounces"`` for facades.
+zero), ``n_bounces < 1``, a DEM that keeps no such bounce at ``beta = 0`` and an unreachable
+target raise ``ValueError`` with the fix (``target="e"`` cuts its bracket where the DEM stops
+bouncing, so the reachable range is always defined). After it, every method (``lbfgs``, its
+false-position finish, ``grid``, ``root``; and :func:`fit_e`) reports ``converged=True`` only
+if its promise is kept, with every number finite: ``target="e"``, the DEM's own ``e`` within
+:data:`E_TOL` of the target; ``target="bounces"`` (the facade default, a best match as in the
+paper), the loss's minimum found; ``loss="history"``, the history error's minimum found from
+the bounce-loss optimum. ``target_met`` says whether the target itself is met (for facades:
+each ``e_exp`` in its band of :data:`BOUNCE_BANDS`), measured on the DEM's saved history by a
+NumPy peak finder independent of the loss (:func:`rockjax.response.bounce_peaks`, also behind
+``Response.e_exp``); ``reason`` and ``target_missed`` say what was missed.
 
 **Layout.** :mod:`~rockjax.calibration.problems` (the public problem objects,
 :func:`problem`, :func:`stats`, :func:`dem_run`, :func:`housner_reference`),
@@ -45,6 +48,7 @@ the verdict), :mod:`~rockjax.calibration.fit` (the public fits).
 """
 
 from .fit import GAP_TOL as GAP_TOL
+from .fit import HISTORY_SPAN as HISTORY_SPAN
 from .fit import HISTORY_STEP as HISTORY_STEP
 from .fit import LOSSES as LOSSES
 from .fit import METHODS as METHODS
@@ -94,6 +98,7 @@ __all__ = [
     "EProblem",
     "FACADE_BETA_MAX_HCRIT",
     "GAP_TOL",
+    "HISTORY_SPAN",
     "HISTORY_STEP",
     "HISTORY_TOL",
     "HistoryFit",

@@ -40,6 +40,7 @@ from .problems import (
     history_params,
     history_problem,
     history_stat,
+    history_stat_batch,
     housner_loss,
     last_compared_peak_time,
     last_compared_time,
@@ -62,10 +63,14 @@ from .result import (
 
 METHODS = ("lbfgs", "grid", "root")
 LOSSES = ("peaks", "history")
+HISTORY_SPAN = 4.0
+"""``fit_beta(loss="history")`` searches ``beta`` in ``[0, HISTORY_SPAN x]`` its start, the
+bounce-loss optimum: the nearby minimum of the history error, or ``converged=False``."""
 HISTORY_STEP = 0.05
 """``fit_beta(loss="history")``: the first L-BFGS step moves ``beta`` by at most this fraction of
 its start (the bounce-loss optimum), so that the phase-sensitive history error's nearby
-minimum is the one found, not one a long first step happens to reach."""
+minimum is the one found, not one a long first step happens to reach; the result must have no
+smaller error this fraction either side (a local minimum)."""
 GAP_TOL = 1e-4
 """``fit_beta`` (``target="e"``): an L-BFGS result whose signed gap ``|log e_DEM - log e|``
 exceeds this is finished by false position on the bracketed gap."""
@@ -124,7 +129,8 @@ def fit_beta(
         n_bounces: Impacts compared (default 8 two-sided, 3 one-sided).
         beta0: Starting ``beta`` [s]; default: seeded by a vmapped scan of ``n_seed`` values.
         beta_max: Upper end of the search [s] (default ``2 beta_DeJong``; facades
-            ``16 beta_Hcrit``, see :data:`FACADE_BETA_MAX_HCRIT`).
+            ``16 beta_Hcrit``, see :data:`FACADE_BETA_MAX_HCRIT`); the DEM's step is sized
+            for it. ``target="e"`` cuts the search where the DEM stops bouncing.
         method: ``"lbfgs"`` (gradient, default), ``"grid"`` (``n_grid`` points) or ``"root"``.
         loss: ``"peaks"`` (default: the phase-insensitive bounce loss, docs/calibration.md) or
             ``"history"``: the paper's weighted-mean time-history error against Housner with
@@ -144,17 +150,20 @@ def fit_beta(
 
     Returns:
         A :class:`Calibration` (``.beta``, ``.e_effective``, ``.loss``, ``.history``,
-        ``.n_simulations``, ...). ``.converged`` is True only when the target is met within
-        its tolerance (:data:`E_TOL`, :data:`BOUNCE_BANDS`), measured on the DEM's history
-        independently of the loss; otherwise ``.reason`` says what was missed.
+        ``.n_simulations``, ...). ``.converged``: ``target="e"``, the target is met within
+        :data:`E_TOL`; ``target="bounces"``, the best match (the loss's minimum) was found;
+        ``.target_met`` says whether the target is met (facades: each ``e_exp`` in its band
+        of :data:`BOUNCE_BANDS`), measured on the DEM's history independently of the loss;
+        ``.reason`` and ``.target_missed`` say what was missed.
 
     Raises:
         ValueError: bad input (e.g. ``n_bounces < 1``), a target with no informative bounce
             (Housner's bounces keep less than :data:`MIN_ENERGY_RATIO` of the release energy:
             the loss would be identically zero), a DEM block that keeps no such bounce at
-            ``beta = 0`` or (``target="e"``) at ``beta_max`` (the reachable range is undefined),
-            or a target outside the reachable range. The message gives the range and the fix.
-            All are raised before the optimisation.
+            ``beta = 0``, or a target outside the reachable range (``target="e"``: the DEM's
+            own ``e`` from ``beta = 0`` to the largest ``beta`` below ``beta_max`` where it still
+            keeps an informative bounce; the fit finds that end itself). The message gives the
+            range and the fix. All are raised before the optimisation.
     """
     check_choice("method", method, METHODS)
     check_choice("loss", loss, LOSSES)
@@ -344,8 +353,13 @@ def _fit_history_error(block, e, *, target, mode, method, rtol, max_iter, progre
         gap=kw["gap"],
     )
     beta_start = max(float(start.beta), 1e-6 * float(problem.beta_cap))
+    # the search stays near the start: beta in [0, HISTORY_SPAN beta_start] (the step, sized
+    # for the problem's beta_cap, stays stable below it)
+    cap = min(float(problem.beta_cap), HISTORY_SPAN * beta_start)
     problem = eqx.tree_at(
-        lambda p: p.scale, problem, jnp.asarray(1.0 / (HISTORY_STEP * beta_start), float)
+        lambda p: (p.scale, p.beta_cap),
+        problem,
+        (jnp.asarray(1.0 / (HISTORY_STEP * beta_start), float), jnp.asarray(cap, float)),
     )
     err_start = float(history_stat(problem, beta_start))
     bar = _progress.bar(progress, total=max_iter, desc="rockjax.fit_beta", unit="it")
@@ -364,13 +378,17 @@ def _fit_history_error(block, e, *, target, mode, method, rtol, max_iter, progre
     )
     bar.total = bar.n
     bar.close()
+    # a local minimum: no smaller error a step HISTORY_STEP either side (one vmapped batch)
+    sides = np.asarray(
+        history_stat_batch(problem, beta * np.array([1 - HISTORY_STEP, 1 + HISTORY_STEP]))
+    )
     fit = _finish(
         problem,
         beta,
         h_resps,
         list(start.history["beta"]) + [p[0] for p, _ in hist],
         list(start.history["loss"]) + [v for _, v in hist],
-        start.n_simulations + 1 + n_add,
+        start.n_simulations + 3 + n_add,
         start.n_iterations + n_iter,
         stopped,
         start.beta_max,
@@ -378,7 +396,7 @@ def _fit_history_error(block, e, *, target, mode, method, rtol, max_iter, progre
         t_start,
         start.e_range,
         loss_kind="history",
-        history_start=(beta_start, err_start),
+        history_start=(beta_start, err_start, sides),
     )
     return fit
 
@@ -514,15 +532,19 @@ def _finish(
         if loss_kind == "history":
             # the history error's minimum is not where the DEM's e is the target: converged
             # means that minimum was found (no worse than the start); the e is reported beside
-            beta0, err0 = history_start
-            worse = (
-                [
+            beta0, err0, sides = history_start
+            worse = []
+            if loss > err0 * (1.0 + 1e-9):
+                worse.append(
                     f"the history error at the result, {loss:.4g}, is larger than {err0:.4g} "
                     f"at the start beta = {beta0:.4g} s (the bounce-loss optimum)"
-                ]
-                if loss > err0 * (1.0 + 1e-9)
-                else []
-            )
+                )
+            if not np.all(loss <= sides * (1.0 + 1e-9)):
+                worse.append(
+                    f"the history error is smaller {100 * HISTORY_STEP:g} % beside the result "
+                    f"({np.round(sides, 4).tolist()} against {loss:.4g}): no minimum within "
+                    f"{HISTORY_SPAN:g} x the bounce-loss optimum (the search's bound)"
+                )
             converged, reason = verdict(converged, worse, beta=beta, loss=loss)
         else:
             converged, reason = verdict(converged, missed, beta=beta, loss=loss)
