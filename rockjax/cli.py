@@ -1047,6 +1047,14 @@ def _add_calibrate_parser(sub) -> None:
         help="lbfgs (gradient), grid (256 points) or root (false position) (default: lbfgs)",
     )
     p.add_argument(
+        "--n-sub",
+        default="exact",
+        metavar="N",
+        help="the DEM joint: 'exact' (the contact law integrated over the face, the converged "
+        "joint) or sub-contacts per face, an integer >= 2 (2: the paper's corner contacts) "
+        "(default: exact)",
+    )
+    p.add_argument(
         "--loss",
         choices=("peaks", "history"),
         default="peaks",
@@ -1100,6 +1108,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         )
     material = {k: v for k, v in (("E", args.E), ("rho", args.rho)) if v is not None}
     block = Block(b=args.b, h=args.h, **material)  # raises ValueError on bad input
+    joint = _joint_of(args.n_sub)
     eta = float(block.eta)
     e_h = float(e_housner(block))
     e_1sr = abs(float(e_isr(block)))
@@ -1139,6 +1148,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         beta_max=args.beta_max,
         method=args.method,
         loss=args.loss,
+        joint=joint,
     )
     e_exp_fit = np.asarray(fit.e_exp, float)
     print(f"beta         = {fit.beta:.6g} s  ({fit.beta / b_dj:.4f} beta_DeJong)", flush=True)
@@ -1198,6 +1208,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         "reason": fit.reason,
         "target_met": fit.target_met,
         "target_missed": fit.target_missed,
+        "joint_n_sub": joint.n_sub,
         "loss_kind": fit.loss_kind,
         "beta_start_s": fit.beta_start,
         "method": fit.method,
@@ -1213,6 +1224,22 @@ def _calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _joint_of(n_sub: str) -> Joint:
+    """The DEM joint of ``--n-sub``: ``"exact"`` or an integer >= 2 (ValueError otherwise)."""
+    if n_sub == "exact":
+        return Joint()
+    try:
+        n = int(n_sub)
+    except ValueError:
+        n = 0
+    if n < 2 or str(n) != n_sub.strip():
+        raise ValueError(
+            f"--n-sub is the DEM joint: 'exact' or sub-contacts per face, an integer >= 2; got "
+            f"--n-sub {n_sub}. E.g. --n-sub 2 (the paper's corner contacts)."
+        )
+    return Joint(n_sub=n)
+
+
 def _calibrate_argv(args: argparse.Namespace) -> list[str]:
     parts = ["calibrate", "--b", f"{args.b:g}", "--h", f"{args.h:g}"]
     for flag, value in (("--e", args.e), ("--E", args.E), ("--rho", args.rho)):
@@ -1225,6 +1252,8 @@ def _calibrate_argv(args: argparse.Namespace) -> list[str]:
     parts += ["--theta0", f"{args.theta0:g}"]
     if args.beta_max is not None:
         parts += ["--beta-max", f"{args.beta_max:g}"]
+    if args.n_sub != "exact":
+        parts += ["--n-sub", str(args.n_sub)]
     if args.loss != "peaks":
         parts += ["--loss", args.loss]
     return parts + ["--method", args.method, "--out", str(args.out)]

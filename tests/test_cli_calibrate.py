@@ -76,6 +76,7 @@ def test_unreachable_e_is_one_error_line_naming_the_range(tmp_path):
 @pytest.mark.parametrize(
     ("args", "match"),
     [
+        (["--n-sub", "1"], "--n-sub is the DEM joint"),
         (["--theta0", "1.2"], "--theta0"),
         (["--e", "1.5"], "--e (restitution"),
         (["--target", "bounces", "--mode", "two_sided"], "--mode one_sided"),
@@ -104,7 +105,7 @@ def test_help_lists_every_option():
     for flag in ("--b", "--h", "--e", "--mode", "--target", "--theta0", "--E", "--rho"):
         assert flag in stdout
     assert "--beta-max" in stdout and "--method" in stdout and "calibration_out" in stdout
-    assert "--loss" in stdout and "history" in stdout
+    assert "--loss" in stdout and "history" in stdout and "--n-sub" in stdout
     assert "%%" not in stdout
 
 
