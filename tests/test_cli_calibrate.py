@@ -68,7 +68,7 @@ def test_unreachable_e_is_one_error_line_naming_the_range(tmp_path):
     assert rc == 2
     assert stderr.startswith("error: ") and stderr.count("\n") == 1
     assert "not reachable" in stderr
-    assert re.search(r"spans e = 0\.\d+ \(beta_max\) to [01]\.\d+ \(beta = 0", stderr)
+    assert re.search(r"spans e = 0\.\d+ \(beta = \S+ s\) to [01]\.\d+ \(beta = 0", stderr)
     assert "Traceback" not in stderr
     assert not out.exists()
 
