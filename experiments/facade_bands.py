@@ -21,7 +21,6 @@ summary quoted in docs/calibration.md, "Facades"), and prints it.
 
 import argparse
 import csv
-import json
 import pathlib
 import time
 
@@ -192,15 +191,21 @@ def main():
                 f"{s['fit_runs']} runs, {s['fit_seconds']:.1f} s (grid {s['grid_seconds']:.0f} s)",
                 flush=True,
             )
+    header = [
+        "b_m",
+        "h_m",
+        "E_Pa",
+        "joint",
+        "beta_s",
+        "beta_over_hcrit",
+        "loss",
+        "pct_isr1",
+        "pct_isr2",
+        "pct_isr3",
+    ]
     with open(out / "facade_bands.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(
-            ["b_m", "h_m", "E_Pa", "joint", "beta_s", "beta_over_hcrit", "loss"]
-            + ["pct_isr1", "pct_isr2", "pct_isr3"]
-        )
-        w.writerows(rows)
-    with open(out / "facade_bands.json", "w") as f:
-        json.dump(summary, f, indent=1)
+        csv.writer(f).writerows([header, *rows])
+    rj.jsonio.write_json(out / "facade_bands.json", summary, indent=1)
     print(f"wrote {out}/facade_bands.csv and facade_bands.json")
 
 

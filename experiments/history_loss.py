@@ -15,7 +15,6 @@ docs/calibration.md, "The history error as the loss"), and prints it.
 
 import argparse
 import csv
-import json
 import pathlib
 import time
 
@@ -111,12 +110,10 @@ def main():
             + (f"; {s['fit_reason']}" if s["fit_reason"] else ""),
             flush=True,
         )
+    header = ["b_m", "h_m", "mode", "beta_s", "beta_over_peaks", "history_error"]
     with open(out / "history_loss.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["b_m", "h_m", "mode", "beta_s", "beta_over_peaks", "history_error"])
-        w.writerows(rows)
-    with open(out / "history_loss.json", "w") as f:
-        json.dump(summary, f, indent=1)
+        csv.writer(f).writerows([header, *rows])
+    rj.jsonio.write_json(out / "history_loss.json", summary, indent=1)
     print(f"wrote {out}/history_loss.csv and history_loss.json")
 
 
