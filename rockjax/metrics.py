@@ -26,18 +26,9 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from .relations import rocking_energy
-
-MODES = ("two_sided", "one_sided")
-
-HYSTERESIS = 2e-3
-"""Impact detection threshold as a fraction of ``eta`` [-]: two-sided, an impact is counted when
-``theta`` reaches the other side beyond ``HYSTERESIS * eta``; one-sided, when ``theta`` falls
-below ``HYSTERESIS * eta`` after having been above twice that. Sub-threshold rocking (e.g. the
-penalty contact's micro-vibration, ~1e-6 rad) is not counted."""
-
-
-RELATIVE_BOUNCE = 0.02
-"""One-sided: a rebound is a bounce only if it rises above this fraction of the previous peak."""
+from .response import HYSTERESIS as HYSTERESIS  # the bounce thresholds, shared with the
+from .response import MODES as MODES  # NumPy finder rockjax.response.bounce_peaks
+from .response import RELATIVE_BOUNCE as RELATIVE_BOUNCE
 
 
 class Peaks(eqx.Module):

@@ -10,6 +10,17 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+HYSTERESIS = 2e-3
+"""Impact detection threshold as a fraction of ``eta`` [-]: two-sided, an impact is counted when
+``theta`` reaches the other side beyond ``HYSTERESIS * eta``; one-sided, when ``theta`` falls
+below ``HYSTERESIS * eta`` after having been above twice that (:func:`rockjax.metrics.peaks`).
+Sub-threshold rocking (e.g. the penalty contact's micro-vibration, ~1e-6 rad) is not counted."""
+
+RELATIVE_BOUNCE = 0.02
+"""One-sided: a rebound is a bounce only if it rises above this fraction of the previous peak."""
+
+MODES = ("two_sided", "one_sided")
+
 STATUS_OK = 0
 STATUS_NONFINITE = 1
 STATUS_UNSTABLE = 2
@@ -161,27 +172,43 @@ class Response(eqx.Module):
         """
         return find_peaks(np.asarray(self.t), np.abs(np.asarray(self.theta)), min_separation)
 
-    def e_exp(self, n_bounces: int = 3, theta0: float | None = None):
+    def bounces(self, mode: str | None = None):
+        """Bounce peak times and amplitudes ``|theta_k|``, ``k >= 1``, of a free-rocking history
+        released from rest: :func:`bounce_peaks` on the saved samples (the finder of
+        :meth:`e_exp` and of the calibration's verdict). Runs on concrete (NumPy) values.
+
+        Args:
+            mode: ``"two_sided"`` or ``"one_sided"`` (a facade: the rebounds off the wall);
+                default (None) :func:`rocking_mode` of this history.
+
+        Returns:
+            ``(t_k, abs_theta_k)`` as NumPy arrays [s], [rad].
+        """
+        mode = rocking_mode(self) if mode is None else mode
+        return bounce_peaks(self.t, self.theta, self.eta, mode)
+
+    def e_exp(self, n_bounces: int = 3, theta0: float | None = None, mode: str | None = None):
         """Experimental coefficient of restitution of bounces 1..n from peak rotations, Eq. (6).
 
         ``e_exp,n = [ (1 - (1 - |theta_n|/eta)^2) / (1 - (1 - |theta_0|/eta)^2) ]^(1/(2n))``
 
+        The bounces are those of :meth:`bounces` (one finder for responses and calibrations: a
+        facade's wall chatter is not a bounce).
+
         Args:
             n_bounces: How many bounces to evaluate.
             theta0: Release rotation [rad]; default the first sample's ``|theta|``.
+            mode: ``"two_sided"`` or ``"one_sided"``; default (None) :func:`rocking_mode`.
 
         Returns:
-            NumPy array of ``e_exp`` for bounces 1..n (NaN where the peak does not exist).
+            NumPy array of ``e_exp`` for bounces 1..n (NaN where the bounce did not happen).
         """
-        _, amp = self.peaks()
+        _, amp = self.bounces(mode)
         eta = float(self.eta)
         th0 = abs(float(self.theta[0])) if theta0 is None else abs(theta0)
-        # the release itself is a maximum at t=0 that find_peaks does not return (edge sample)
-        out = np.full(n_bounces, np.nan)
-        for n in range(1, n_bounces + 1):
-            if n <= amp.size:
-                out[n - 1] = e_exp(amp[n - 1], th0, eta, n)
-        return out
+        padded = np.full(n_bounces, np.nan)  # a missing bounce gives NaN
+        padded[: min(n_bounces, amp.size)] = amp[:n_bounces]
+        return np.asarray(_e_exp_jit(padded, th0, eta, np.arange(1, n_bounces + 1)))
 
 
 # Per-sample extras of the simulators whose units are known, for Response.to_dataframe.
@@ -250,6 +277,70 @@ def e_exp(theta_n, theta0, eta, n):
     num = 1.0 - (1.0 - jnp.abs(theta_n) / eta) ** 2
     den = 1.0 - (1.0 - jnp.abs(theta0) / eta) ** 2
     return (num / den) ** (1.0 / (2.0 * n))
+
+
+def impact_threshold(mode: str) -> float:
+    """Impact threshold of the bounce finders as a fraction of ``eta`` [-]: :data:`HYSTERESIS`
+    two-sided, a tenth of it one-sided (facade bounces are small)."""
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}; got mode={mode!r}.")
+    return HYSTERESIS if mode == "two_sided" else 0.1 * HYSTERESIS
+
+
+def rocking_mode(resp: Response) -> str:
+    """``"one_sided"`` if the history never passes to the far side of its release by more than
+    :data:`HYSTERESIS` ``eta`` (a facade: a return wall's contact penetration is far smaller),
+    else ``"two_sided"``."""
+    th = np.asarray(resp.theta, float)
+    side = 1.0 if th[0] >= 0 else -1.0
+    return "one_sided" if np.min(side * th) > -HYSTERESIS * float(resp.eta) else "two_sided"
+
+
+def bounce_peaks(t, theta, eta, mode: str) -> tuple[np.ndarray, np.ndarray]:
+    """Bounce peak times [s] and amplitudes ``|theta_k|``, ``k >= 1`` [rad] of a history released
+    from rest (``theta[0]``), found in NumPy on the saved samples.
+
+    Without impact detection (an independent path from the calibration loss's
+    :func:`rockjax.metrics.peaks`): the local maxima of ``y = |theta|`` (one-sided
+    ``max(theta, 0)``: the rebounds), where two neighbours whose valley stays above half the
+    smaller one are one flight (penalty-contact wobble on it; the larger is kept), each
+    refined by a parabola through three samples and kept only if it exceeds
+    :data:`RELATIVE_BOUNCE` of the previous kept one (the release first) and twice the
+    :func:`impact_threshold` (micro-vibration in contact, or a facade's chatter on its wall, is
+    no bounce).
+
+    Args:
+        t: Sample times [s], uniform. theta: Rotation [rad]. eta: Slenderness [rad].
+        mode: ``"two_sided"`` or ``"one_sided"``.
+    """
+    th = np.asarray(theta, float)
+    y = np.abs(th) if mode == "two_sided" else np.maximum(th, 0.0)
+    idx = np.flatnonzero((y[1:-1] > y[:-2]) & (y[1:-1] >= y[2:])) + 1
+    merged = [0]  # the release: a noisy maximum on its flight is the release, not a bounce
+    for i in idx:
+        if y[merged[-1] : i + 1].min() > 0.5 * min(y[merged[-1]], y[i]):
+            if y[i] > y[merged[-1]]:
+                merged[-1] = i
+        else:
+            merged.append(i)
+    merged = merged[1:]
+    t = np.asarray(t, float)
+    prev = abs(float(th[0]))
+    floor = 2.0 * impact_threshold(mode) * float(eta)
+    times, amps = [], []
+    for i in merged:
+        y0, y1, y2 = y[i - 1], y[i], y[i + 1]
+        den = y0 - 2.0 * y1 + y2
+        s = min(max(0.5 * (y0 - y2) / den, -1.0), 1.0) if den < 0 else 0.0  # vertex offset
+        a = y1 - 0.25 * (y0 - y2) * s
+        if a > max(floor, RELATIVE_BOUNCE * prev):
+            times.append(t[i] + s * (t[i + 1] - t[i]))
+            amps.append(a)
+            prev = a
+    return np.asarray(times, float), np.asarray(amps, float)
+
+
+_e_exp_jit = jax.jit(e_exp)  # one small program instead of an eager compilation of each operation
 
 
 def find_peaks(t: np.ndarray, y: np.ndarray, min_separation: float = 0.0):

@@ -300,6 +300,9 @@ def test_facade_target_e_meets_its_tolerance_or_raises(e, beta_max_hcrit):
         fit = rj.fit_beta(FACADE, e=e, target="e", mode="one_sided", beta_max=bmax, method="root")
     except ValueError as err:
         assert "target='bounces'" in str(err)
+        # |e_ISR| lies in this DEM's reachable range: the fit finds its own bracket (it used to
+        # refuse at the default beta_max, "the reachable range of e is undefined")
+        assert beta_max_hcrit is not None, err
         return
     e_here = _e_least_squares(fit.dem, "one_sided", 3)
     assert all(np.isfinite(x) for x in (fit.beta, fit.loss, *fit.e_range))
@@ -325,3 +328,91 @@ def test_verdict_rule():
     mid = np.asarray(calibration.BOUNCE_FRACTIONS) * E_ISR
     assert calibration.bounces_missed(mid, -E_ISR) == []
     assert len(calibration.bounces_missed(mid * [0.9, 1.0, math.nan], E_ISR)) == 2
+
+
+def test_target_e_finds_its_own_bracket_and_refuses_only_outside_the_range():
+    """At the default beta_max the facade's bounces vanish long before (~2.5 beta_Hcrit): the
+    fit cuts its bracket where the DEM still bounces, and refuses an e outside the reachable
+    range naming it. The range's ends are the DEM's own e, measured here with scipy's peaks."""
+    with pytest.raises(ValueError, match=r"spans e = 0\.\d+ \(beta = .* s\) to 0\.\d+") as err:
+        rj.fit_beta(FACADE, e=0.99, target="e", mode="one_sided", method="root")
+    assert "keeps no bounce" in str(err.value) and "widen beta_max" not in str(err.value)
+    fit = rj.fit_beta(FACADE, e=E_ISR, target="e", mode="one_sided", method="root")
+    e_lo, e_hi = fit.e_range
+    assert e_lo < E_ISR < e_hi and fit.beta < fit.beta_max
+    bh = float(rj.beta_hcrit(FACADE))
+    assert fit.beta_max < 0.5 * calibration.FACADE_BETA_MAX_HCRIT * bh  # cut at the edge
+    edge = calibration.dem_run(
+        calibration.problem(FACADE, E_ISR, target="e", mode="one_sided"), fit.beta_max
+    )
+    assert abs(_e_least_squares(edge, "one_sided", 3) - e_lo) <= 10 * PEAK_TOL
+    if fit.converged:
+        e_here = _e_least_squares(fit.dem, "one_sided", 3)
+        assert abs(e_here - E_ISR) <= calibration.E_TOL + PEAK_TOL
+
+
+STEP = 0.01  # relative beta step of the local parabola that checks a minimum
+MIN_BETA_RTOL = 0.01  # a fit's beta vs the vertex of that parabola (the grid benchmark's is 2 %)
+
+
+def _vertex(y_lo, y_mid, y_hi):
+    """The vertex of the parabola through (1 - STEP, 1, 1 + STEP) in units of the middle beta;
+    +-inf where it is not a minimum (no curvature or a maximum)."""
+    den = y_lo - 2.0 * y_mid + y_hi
+    return 1.0 + 0.5 * STEP * (y_lo - y_hi) / den if den > 0 else math.inf
+
+
+@pytest.fixture(scope="module")
+def facade_fit():
+    return rj.fit_beta(FACADE, mode="one_sided")
+
+
+def test_facade_default_is_the_best_match_and_reports_the_bands(facade_fit):
+    """The paper chose the beta that best matched the measured bounce pattern: the default
+    facade fit converges to the minimum of its loss (here: within 1 % of the vertex of the
+    parabola through the loss 1 % either side),
+    and target_met says whether each e_exp (scipy peaks here) lies in its band. In this DEM no
+    beta meets all three (docs/calibration.md, "Facades"): it used to report NOT converged."""
+    fit = facade_fit
+    assert fit.converged and fit.reason == ""
+    p = calibration.problem(FACADE, mode="one_sided")
+    side = np.asarray(calibration.stats_batch(p, fit.beta * np.array([1 - STEP, 1 + STEP]))[0])
+    assert abs(_vertex(side[0], fit.loss, side[1]) - 1.0) <= MIN_BETA_RTOL
+    amp = _bounces(fit.dem, "one_sided")[:3]
+    eta, th0 = float(FACADE.eta), abs(float(fit.dem.theta[0]))
+    e_here = rj.relations.e_exp(amp, th0, eta, np.arange(1, amp.size + 1)) / E_ISR
+    np.testing.assert_allclose(np.asarray(fit.e_exp) / E_ISR, e_here, atol=5e-3)
+    met = all(lo <= r <= hi for r, (lo, hi) in zip(e_here, calibration.BOUNCE_BANDS))
+    assert fit.target_met == met and (fit.target_missed == "") == met
+    assert "best match" in repr(fit) or met
+
+
+def test_response_e_exp_is_the_fits_bounce_finder(facade_fit):
+    """Response.e_exp used to count a facade's wall chatter as bounces (0.334 / 0.214 / 0.506
+    where the fit gave 0.334 / 0.360 / 0.405): one finder now, the mode read from the history."""
+    dem = facade_fit.dem
+    assert rj.response.rocking_mode(dem) == "one_sided"
+    np.testing.assert_array_equal(dem.e_exp(3), facade_fit.e_exp)
+    amp = _bounces(dem, "one_sided")[:3]  # scipy's prominence, independent of both
+    np.testing.assert_allclose(dem.bounces()[1][:3], amp, rtol=0, atol=PEAK_TOL * float(FACADE.eta))
+
+
+def test_history_loss_input_checks():
+    with pytest.raises(ValueError, match="method='lbfgs'"):
+        rj.fit_beta(BLOCK, e=E_TARGET, loss="history", method="grid")
+    with pytest.raises(ValueError, match="target='e'"):
+        rj.fit_beta(FACADE, mode="one_sided", target="bounces", loss="history")
+    with pytest.raises(ValueError, match="loss"):
+        rj.fit_beta(BLOCK, e=E_TARGET, loss="energy")
+
+
+@pytest.mark.slow
+def test_history_loss_finds_the_nearby_minimum_on_a_facade():
+    """loss='history' from the bounce-loss optimum ends at a local minimum of the history
+    error against one-sided Housner with |e_ISR|: within 1 % of the vertex of the parabola
+    through the error 1 % either side (history_stat_batch)."""
+    fit = rj.fit_beta(FACADE, mode="one_sided", loss="history")
+    assert fit.converged and fit.loss_kind == "history"
+    p = calibration.problem(FACADE, E_ISR, target="e", mode="one_sided")
+    side = np.asarray(calibration.history_stat_batch(p, fit.beta * np.array([1 - STEP, 1 + STEP])))
+    assert abs(_vertex(side[0], fit.loss, side[1]) - 1.0) <= MIN_BETA_RTOL

@@ -27,14 +27,17 @@ points) and ``"root"`` (Illinois false position on the signed log-energy gap, mo
 
 **What a result promises.** Before any optimisation, a target whose Housner reference has no
 bounce keeping :data:`MIN_ENERGY_RATIO` of its release energy (the loss would be identically
-zero), ``n_bounces < 1``, a DEM that keeps no such bounce at an end of the search (the
-reachable range is undefined) and an unreachable target raise ``ValueError`` with the fix.
-After it, every method (``lbfgs``, its false-position finish, ``grid``, ``root``; and
-:func:`fit_e`) reports ``converged=True`` only if the target is met within a stated tolerance
-(:data:`E_TOL` on the DEM's own ``e``, :data:`BOUNCE_BANDS` for facades), measured on the DEM's
-saved history by a NumPy peak finder independent of the loss, with every number finite;
-otherwise ``converged=False`` and ``reason`` says what was missed. The mode's default target
-(:func:`default_target`) is ``"bounces"`` for facades.
+zero), ``n_bounces < 1``, a DEM that keeps no such bounce at ``beta = 0`` and an unreachable
+target raise ``ValueError`` with the fix (``target="e"`` cuts its bracket where the DEM stops
+bouncing, so the reachable range is always defined). After it, every method (``lbfgs``, its
+false-position finish, ``grid``, ``root``; and :func:`fit_e`) reports ``converged=True`` only
+if its promise is kept, with every number finite: ``target="e"``, the DEM's own ``e`` within
+:data:`E_TOL` of the target; ``target="bounces"`` (the facade default, a best match as in the
+paper), the loss's minimum found; ``loss="history"``, the history error's minimum found from
+the bounce-loss optimum. ``target_met`` says whether the target itself is met (for facades:
+each ``e_exp`` in its band of :data:`BOUNCE_BANDS`), measured on the DEM's saved history by a
+NumPy peak finder independent of the loss (:func:`rockjax.response.bounce_peaks`, also behind
+``Response.e_exp``); ``reason`` and ``target_missed`` say what was missed.
 
 **Layout.** :mod:`~rockjax.calibration.problems` (the public problem objects,
 :func:`problem`, :func:`stats`, :func:`dem_run`, :func:`housner_reference`),
@@ -45,6 +48,9 @@ the verdict), :mod:`~rockjax.calibration.fit` (the public fits).
 """
 
 from .fit import GAP_TOL as GAP_TOL
+from .fit import HISTORY_SPAN as HISTORY_SPAN
+from .fit import HISTORY_STEP as HISTORY_STEP
+from .fit import LOSSES as LOSSES
 from .fit import METHODS as METHODS
 from .fit import e_effective as e_effective
 from .fit import fit_beta as fit_beta
@@ -60,11 +66,14 @@ from .problems import default_target as default_target
 from .problems import dem_run as dem_run
 from .problems import history_loss as history_loss
 from .problems import history_problem as history_problem
+from .problems import history_stat as history_stat
+from .problems import history_stat_batch as history_stat_batch
 from .problems import housner_reference as housner_reference
 from .problems import last_compared_time as last_compared_time
 from .problems import problem as problem
 from .problems import stats as stats
 from .problems import stats_batch as stats_batch
+from .problems import window_error as window_error
 from .result import BOUNCE_BANDS as BOUNCE_BANDS
 from .result import BOUNCE_FRACTIONS as BOUNCE_FRACTIONS
 from .result import E_TOL as E_TOL
@@ -77,6 +86,7 @@ from .result import bounces_missed as bounces_missed
 from .result import e_missed as e_missed
 from .result import history_missed as history_missed
 from .result import history_peak_gap as history_peak_gap
+from .result import minimum_missed as minimum_missed
 from .result import verdict as verdict
 
 __all__ = [
@@ -88,9 +98,12 @@ __all__ = [
     "EProblem",
     "FACADE_BETA_MAX_HCRIT",
     "GAP_TOL",
+    "HISTORY_SPAN",
+    "HISTORY_STEP",
     "HISTORY_TOL",
     "HistoryFit",
     "HistoryProblem",
+    "LOSSES",
     "METHODS",
     "MIN_ENERGY_RATIO",
     "MODES",
@@ -108,10 +121,14 @@ __all__ = [
     "history_missed",
     "history_peak_gap",
     "history_problem",
+    "history_stat",
+    "history_stat_batch",
     "housner_reference",
     "last_compared_time",
+    "minimum_missed",
     "problem",
     "stats",
     "stats_batch",
     "verdict",
+    "window_error",
 ]

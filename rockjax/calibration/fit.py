@@ -39,11 +39,14 @@ from .problems import (
     history_loss,
     history_params,
     history_problem,
+    history_stat,
+    history_stat_batch,
     housner_loss,
     last_compared_peak_time,
     last_compared_time,
     stats,
     stats_batch,
+    window_error,
 )
 from .result import (
     MIN_ENERGY_RATIO,
@@ -53,11 +56,21 @@ from .result import (
     bounces_missed,
     e_missed,
     history_missed,
+    minimum_missed,
     restitution,
     verdict,
 )
 
 METHODS = ("lbfgs", "grid", "root")
+LOSSES = ("peaks", "history")
+HISTORY_SPAN = 4.0
+"""``fit_beta(loss="history")`` searches ``beta`` in ``[0, HISTORY_SPAN x]`` its start, the
+bounce-loss optimum: the nearby minimum of the history error, or ``converged=False``."""
+HISTORY_STEP = 0.05
+"""``fit_beta(loss="history")``: the first L-BFGS step moves ``beta`` by at most this fraction of
+its start (the bounce-loss optimum), so that the phase-sensitive history error's nearby
+minimum is the one found, not one a long first step happens to reach; the result must have no
+smaller error this fraction either side (a local minimum)."""
 GAP_TOL = 1e-4
 """``fit_beta`` (``target="e"``): an L-BFGS result whose signed gap ``|log e_DEM - log e|``
 exceeds this is finished by false position on the bracketed gap."""
@@ -92,6 +105,7 @@ def fit_beta(
     beta0: float | None = None,
     beta_max: float | None = None,
     method: str = "lbfgs",
+    loss: str = "peaks",
     n_seed: int = 9,
     n_grid: int = 256,
     rtol: float = 1e-4,
@@ -115,8 +129,16 @@ def fit_beta(
         n_bounces: Impacts compared (default 8 two-sided, 3 one-sided).
         beta0: Starting ``beta`` [s]; default: seeded by a vmapped scan of ``n_seed`` values.
         beta_max: Upper end of the search [s] (default ``2 beta_DeJong``; facades
-            ``16 beta_Hcrit``, see :data:`FACADE_BETA_MAX_HCRIT`).
+            ``16 beta_Hcrit``, see :data:`FACADE_BETA_MAX_HCRIT`); the DEM's step is sized
+            for it. ``target="e"`` cuts the search where the DEM stops bouncing.
         method: ``"lbfgs"`` (gradient, default), ``"grid"`` (``n_grid`` points) or ``"root"``.
+        loss: ``"peaks"`` (default: the phase-insensitive bounce loss, docs/calibration.md) or
+            ``"history"``: the paper's weighted-mean time-history error against Housner with
+            ``e`` (:func:`rockjax.metrics.history_error`, up to the reference's last compared
+            bounce; one-sided, ``e`` defaults to ``|e_ISR|``, Eq. 5), minimised by L-BFGS from
+            the ``"peaks"`` optimum (its first step at most :data:`HISTORY_STEP` of it), so
+            the nearby minimum of that phase-sensitive error is the one found;
+            ``target="e"``, ``method="lbfgs"`` only.
         rtol: Stop when an iteration moves ``beta`` by less than ``rtol`` relative.
         max_iter: Iteration cap (L-BFGS or root find).
         joint: The DEM's contact joint (:class:`rockjax.Joint`; default ``rj.Joint()``, the
@@ -128,19 +150,41 @@ def fit_beta(
 
     Returns:
         A :class:`Calibration` (``.beta``, ``.e_effective``, ``.loss``, ``.history``,
-        ``.n_simulations``, ...). ``.converged`` is True only when the target is met within
-        its tolerance (:data:`E_TOL`, :data:`BOUNCE_BANDS`), measured on the DEM's history
-        independently of the loss; otherwise ``.reason`` says what was missed.
+        ``.n_simulations``, ...). ``.converged``: ``target="e"``, the target is met within
+        :data:`E_TOL`; ``target="bounces"``, the best match (the loss's minimum) was found;
+        ``.target_met`` says whether the target is met (facades: each ``e_exp`` in its band
+        of :data:`BOUNCE_BANDS`), measured on the DEM's history independently of the loss;
+        ``.reason`` and ``.target_missed`` say what was missed.
 
     Raises:
         ValueError: bad input (e.g. ``n_bounces < 1``), a target with no informative bounce
             (Housner's bounces keep less than :data:`MIN_ENERGY_RATIO` of the release energy:
             the loss would be identically zero), a DEM block that keeps no such bounce at
-            ``beta = 0`` or (``target="e"``) at ``beta_max`` (the reachable range is undefined),
-            or a target outside the reachable range. The message gives the range and the fix.
-            All are raised before the optimisation.
+            ``beta = 0``, or a target outside the reachable range (``target="e"``: the DEM's
+            own ``e`` from ``beta = 0`` to the largest ``beta`` below ``beta_max`` where it still
+            keeps an informative bounce; the fit finds that end itself). The message gives the
+            range and the fix. All are raised before the optimisation.
     """
     check_choice("method", method, METHODS)
+    check_choice("loss", loss, LOSSES)
+    if loss == "history":
+        return _fit_history_error(
+            block,
+            e,
+            target=target,
+            mode=mode,
+            theta0=theta0,
+            n_bounces=n_bounces,
+            beta0=beta0,
+            beta_max=beta_max,
+            method=method,
+            n_seed=n_seed,
+            rtol=rtol,
+            max_iter=max_iter,
+            joint=joint,
+            gap=gap,
+            progress=progress,
+        )
     _check_stopping(rtol, max_iter, 1e-4, 40)
     _check_count("n_seed", n_seed, 1, 9)
     _check_count("n_grid", n_grid, 2, 256)
@@ -170,11 +214,28 @@ def fit_beta(
         scan = np.array([0.0, bmax])
     loss_s, gap_s, own_s, _ = map(np.asarray, stats_batch(problem, scan))
     n_sims = scan.size
+    best_match = problem.kind == "bounces" and method == "lbfgs" and beta0 is None
+    edge = (problem.kind == "e" or best_match) and bool(
+        np.isfinite(own_s[0]) and not np.isfinite(own_s[-1])
+    )
+    if edge:
+        # the DEM keeps no informative bounce at beta_max: the bracket ends where it still does
+        scan, loss_s, gap_s, own_s, n_add = _bounce_edge(problem, scan, (loss_s, gap_s, own_s))
+        n_sims += n_add
+        if problem.kind == "e":
+            bmax = float(scan[-1])
+    if best_match:
+        # the best match's seed: the smallest loss over a dense scan of the range where the DEM
+        # bounces (the loss has cliffs where a bounce vanishes, beside its minimum)
+        scan, loss_s, gap_s, own_s = _dense_scan(problem, scan, (loss_s, gap_s, own_s))
+        n_sims += 2 * EDGE_POINTS
+        beta0 = float(scan[int(np.nanargmin(loss_s))])
     e_range = check_range(problem, scan, own_s, bmax)
-    check_reachable(problem, float(gap_s[0]), float(gap_s[-1]), bmax, e_range)
-    slope = max((gap_s[0] - gap_s[-1]) / bmax, 1e-12)
+    check_reachable(problem, float(gap_s[0]), float(gap_s[-1]), float(scan[-1]), e_range, edge)
+    slope = max((gap_s[0] - gap_s[-1]) / float(scan[-1]), 1e-12)
     problem = eqx.tree_at(lambda p: p.scale, problem, jnp.asarray(slope, float))
     hist_b, hist_l = list(scan), list(loss_s)
+    scan_losses = loss_s
 
     converged = True
     n_iter = 0
@@ -250,7 +311,155 @@ def fit_beta(
         e_range,
         root_finish,
         final,
+        scan_losses,
     )
+
+
+def _fit_history_error(block, e, *, target, mode, method, rtol, max_iter, progress, **kw):
+    """``fit_beta(loss="history")``: L-BFGS on the history error from the bounce-loss optimum."""
+    if method != "lbfgs":
+        raise ValueError(
+            f"loss='history' is minimised by L-BFGS from the bounce-loss optimum; got "
+            f"method={method!r}. Use method='lbfgs' (the default)."
+        )
+    if target not in (None, "e"):
+        raise ValueError(
+            f"loss='history' compares the DEM's time history with Housner's for a restitution "
+            f"e; got target={target!r}. Use target='e' (or leave it None)."
+        )
+    if e is None and mode == "one_sided":
+        e = abs(float(e_isr(concrete_block(block))))  # Eq. 5: Housner's one-sided reference
+    t_start = time.perf_counter()
+    start = fit_beta(
+        block,
+        e,
+        target="e",
+        mode=mode,
+        method="lbfgs",
+        rtol=rtol,
+        max_iter=max_iter,
+        progress=progress,
+        **kw,
+    )
+    problem, h_resps = build_problem(
+        block,
+        e=e,
+        target="e",
+        mode=mode,
+        theta0=kw["theta0"],
+        n_bounces=kw["n_bounces"],
+        beta_max=kw["beta_max"],
+        joint=kw["joint"],
+        gap=kw["gap"],
+    )
+    beta_start = max(float(start.beta), 1e-6 * float(problem.beta_cap))
+    # the search stays near the start: beta in [0, HISTORY_SPAN beta_start] (the step, sized
+    # for the problem's beta_cap, stays stable below it)
+    cap = min(float(problem.beta_cap), HISTORY_SPAN * beta_start)
+    problem = eqx.tree_at(
+        lambda p: (p.scale, p.beta_cap),
+        problem,
+        (jnp.asarray(1.0 / (HISTORY_STEP * beta_start), float), jnp.asarray(cap, float)),
+    )
+    err_start = float(history_stat(problem, beta_start))
+    bar = _progress.bar(progress, total=max_iter, desc="rockjax.fit_beta", unit="it")
+
+    def on_step(params, value):
+        bar.set_postfix_str(f"beta = {params[0]:.4g} s, history error = {value:.3g}")
+        bar.update()
+
+    u0 = (
+        float(problem.scale)
+        * float(problem.beta_cap)
+        * math.atanh(min(beta_start / float(problem.beta_cap), 0.999))
+    )
+    _, (beta,), hist, n_add, n_iter, stopped = solvers.minimize(
+        _history_u, problem, u0, _beta_params, rtol, max_iter, on_step
+    )
+    bar.total = bar.n
+    bar.close()
+    # a local minimum: no smaller error a step HISTORY_STEP either side (one vmapped batch)
+    sides = np.asarray(
+        history_stat_batch(problem, beta * np.array([1 - HISTORY_STEP, 1 + HISTORY_STEP]))
+    )
+    fit = _finish(
+        problem,
+        beta,
+        h_resps,
+        list(start.history["beta"]) + [p[0] for p, _ in hist],
+        list(start.history["loss"]) + [v for _, v in hist],
+        start.n_simulations + 3 + n_add,
+        start.n_iterations + n_iter,
+        stopped,
+        start.beta_max,
+        "lbfgs",
+        t_start,
+        start.e_range,
+        loss_kind="history",
+        history_start=(beta_start, err_start, sides),
+    )
+    return fit
+
+
+def _history_loss_u(u, problem: CalibrationProblem):
+    return history_stat(problem, beta_of_u(problem, u))
+
+
+_history_u = forward_mode(_history_loss_u)
+
+
+EDGE_ROUNDS = 3
+"""Rounds of :func:`_bounce_edge` (each a vmapped batch of ``EDGE_POINTS`` runs): the edge is
+located to ``1 / (EDGE_POINTS + 1) ** EDGE_ROUNDS`` of the scan's step (1/8000 of
+``beta_max`` after a 9-point scan)."""
+EDGE_POINTS = 9
+
+
+def _bounce_edge(problem: CalibrationProblem, scan, stats_s):
+    """The scan cut at the largest ``beta`` where the DEM still keeps an informative bounce.
+
+    ``stats_s = (loss, gap, own log e)`` at ``scan``, own finite at ``scan[0]`` and NaN at
+    ``scan[-1]``. Refines the interval between the last finite and the first NaN point with
+    :data:`EDGE_ROUNDS` vmapped batches of :data:`EDGE_POINTS` runs (one more when the scan
+    has only its two ends, as for ``method="grid"`` and ``"root"``). Returns ``(scan, loss, gap, own, n_simulations)`` over the finite points,
+    ending at the edge.
+    """
+    pts = {float(b): tuple(float(x[i]) for x in stats_s) for i, b in enumerate(scan)}
+    n_sims = 0
+    for _ in range(EDGE_ROUNDS + (1 if len(scan) < EDGE_POINTS else 0)):
+        betas = np.array(sorted(pts))
+        own = np.array([pts[b][2] for b in betas])
+        i = int(np.flatnonzero(np.isfinite(own)).max())
+        if i + 1 >= betas.size:
+            break
+        sub = np.linspace(betas[i], betas[i + 1], EDGE_POINTS + 2)[1:-1]
+        out = [np.asarray(x) for x in stats_batch(problem, sub)]
+        for k, b in enumerate(sub):
+            pts[float(b)] = tuple(float(x[k]) for x in out[:3])
+        n_sims += EDGE_POINTS
+    betas = np.array(sorted(pts))
+    vals = np.array([pts[b] for b in betas])
+    keep = np.isfinite(vals[:, 2])
+    last = int(np.flatnonzero(keep).max())
+    keep[last + 1 :] = False
+    return betas[keep], vals[keep, 0], vals[keep, 1], vals[keep, 2], n_sims
+
+
+def _dense_scan(problem: CalibrationProblem, scan, stats_s):
+    """``scan`` and ``stats_s = (loss, gap, own log e)`` merged with two vmapped batches of
+    :data:`EDGE_POINTS` runs spread over ``[0, scan[-1]]``, sorted by ``beta``."""
+    sub = np.linspace(0.0, float(scan[-1]), 2 * EDGE_POINTS + 2)[1:-1]
+    out = [
+        np.concatenate([np.asarray(x) for x in parts])
+        for parts in zip(
+            *(stats_batch(problem, sub[k : k + EDGE_POINTS]) for k in (0, EDGE_POINTS)),
+            strict=True,
+        )
+    ]
+    betas = np.concatenate([np.asarray(scan, float), sub])
+    order = np.argsort(betas, kind="stable")
+    vals = [np.concatenate([np.asarray(a), b])[order] for a, b in zip(stats_s, out[:3])]
+    return betas[order], vals[0], vals[1], vals[2]
 
 
 def _beta_params(u, problem: CalibrationProblem):
@@ -281,7 +490,7 @@ def _final_program(problem: CalibrationProblem, beta, h_theta, t_last):
     dem = dem_run(problem, beta)
     h_err = None
     if h_theta is not None:
-        h_err = metrics.history_error(dem.theta, h_theta, (dem.t <= t_last).astype(float))
+        h_err = window_error(dem, h_theta, t_last)
     return dem, stats(problem, beta), h_err
 
 
@@ -300,8 +509,13 @@ def _finish(
     e_range,
     root_finish=False,
     final=None,
+    scan_losses=(),
+    loss_kind="peaks",
+    history_start=None,
 ):
     dem, (loss, gap, _, peak), h_err = final or _final_runs(problem, beta, h_resps)
+    if loss_kind == "history":
+        loss = float(history_stat(problem, beta))
     e_eff = restitution(dem, problem.n_bounces, problem.mode)
     e3 = bounce_e_exp(dem, problem.mode)
     e_val = None
@@ -315,9 +529,33 @@ def _finish(
                 "the DEM's restitution changes from bounce to bounce (e_exp 1-3 = "
                 f"{np.round(e3, 4).tolist()}), so no single beta gives both"
             )
+        if loss_kind == "history":
+            # the history error's minimum is not where the DEM's e is the target: converged
+            # means that minimum was found (no worse than the start); the e is reported beside
+            beta0, err0, sides = history_start
+            worse = []
+            if loss > err0 * (1.0 + 1e-9):
+                worse.append(
+                    f"the history error at the result, {loss:.4g}, is larger than {err0:.4g} "
+                    f"at the start beta = {beta0:.4g} s (the bounce-loss optimum)"
+                )
+            if not np.all(loss <= sides * (1.0 + 1e-9)):
+                worse.append(
+                    f"the history error is smaller {100 * HISTORY_STEP:g} % beside the result "
+                    f"({np.round(sides, 4).tolist()} against {loss:.4g}): no minimum within "
+                    f"{HISTORY_SPAN:g} x the bounce-loss optimum (the search's bound)"
+                )
+            converged, reason = verdict(converged, worse, beta=beta, loss=loss)
+        else:
+            converged, reason = verdict(converged, missed, beta=beta, loss=loss)
     else:
+        # a best match (the paper's procedure): converged means the loss's minimum was found;
+        # whether the bounces fall in their measured bands is reported beside it
         missed = bounces_missed(e3, float(e_isr(problem.block)))
-    converged, reason = verdict(converged, missed, beta=beta, loss=loss)
+        converged, reason = verdict(
+            converged, minimum_missed(loss, scan_losses), beta=beta, loss=loss
+        )
+    target_missed = "; ".join(missed)
     return Calibration(
         beta=float(beta),
         e=e_val,
@@ -338,6 +576,10 @@ def _finish(
         dem=dem,
         housner=housner,
         reason=reason,
+        target_met=not missed,
+        target_missed=target_missed,
+        loss_kind=loss_kind,
+        beta_start=None if history_start is None else float(history_start[0]),
     )
 
 
@@ -497,7 +739,8 @@ def fit_e(
     w = (np.asarray(dem.t) <= t_last).astype(float)
     e_eff = restitution(dem, problem.n_bounces, mode)
     loss = float(housner_loss(v, eproblem))
-    converged, reason = verdict(converged, e_missed(e_fit, e_eff), e=e_fit, loss=loss)
+    missed = e_missed(e_fit, e_eff)
+    converged, reason = verdict(converged, missed, e=e_fit, loss=loss)
     return Calibration(
         beta=float(beta),
         e=e_fit,
@@ -517,6 +760,8 @@ def fit_e(
         dem=dem,
         housner=housner,
         reason=reason,
+        target_met=not missed,
+        target_missed="; ".join(missed),
     )
 
 

@@ -68,6 +68,10 @@ class CalibrationProblem(eqx.Module):
         dt: DEM time step [s].
         joint: The DEM's :class:`rockjax.Joint`.
         hysteresis: Impact threshold of the peak finders, a fraction of ``eta`` [-].
+        ref_theta: ``target="e"``: Housner's reference histories, one per release, saved every
+            :data:`SAVE_DT` as the DEM's [rad] (None for ``"bounces"``).
+        ref_t_last: ``target="e"``: the time of each reference's last compared bounce [s],
+            the end of the window of :func:`history_stat`.
     """
 
     block: Block
@@ -84,6 +88,8 @@ class CalibrationProblem(eqx.Module):
     dt: float = eqx.field(static=True)
     joint: Joint = eqx.field(static=True)
     hysteresis: float = eqx.field(static=True)
+    ref_theta: jax.Array | None = None  # Housner's histories (n_release, T) [rad], kind "e"
+    ref_t_last: jax.Array | None = None  # their last compared bounce's time (n_release,) [s]
 
 
 def dem_run(problem: CalibrationProblem, beta, theta0=None) -> Response:
@@ -155,6 +161,38 @@ def _stats(problem: CalibrationProblem, beta):
     own = jnp.mean(jax.vmap(metrics.log_e_fit)(pk))  # the DEM's own log e, target-free
     bad = jnp.any(status != STATUS_OK)
     return tuple(jnp.where(bad, jnp.nan, x) for x in (loss, gap, own, shape))
+
+
+def window_error(dem: Response, ref_theta, t_last):
+    """The paper's weighted-mean history error (:func:`rockjax.metrics.history_error`) of a DEM
+    run against a reference history, weights 1 up to ``t_last`` [s] (the reference's last
+    compared bounce) and 0 after [-]."""
+    return metrics.history_error(dem.theta, ref_theta, (dem.t <= t_last).astype(float))
+
+
+def history_stat(problem: CalibrationProblem, beta):
+    """The history error of the DEM at ``beta`` [s] against Housner's reference, averaged over
+    the releases (:func:`window_error`) [-]; NaN if a run failed. ``target="e"`` only: the
+    loss of ``fit_beta(..., loss="history")``."""
+    if problem.ref_theta is None:
+        raise ValueError("the history error needs a Housner reference: target='e'.")
+    return _history_stat(problem, jnp.asarray(beta, float))
+
+
+@persistent_jit
+def _history_stat(problem: CalibrationProblem, beta):
+    def one(theta0, ref_theta, t_last):
+        r = dem_run(problem, beta, theta0)
+        return window_error(r, ref_theta, t_last), r.status
+
+    err, status = jax.vmap(one)(problem.theta0, problem.ref_theta, problem.ref_t_last)
+    return jnp.where(jnp.any(status != STATUS_OK), jnp.nan, jnp.mean(err))
+
+
+@persistent_jit
+def history_stat_batch(problem: CalibrationProblem, betas):
+    """:func:`history_stat` at each of ``betas`` [s] (one compiled, vmapped batch)."""
+    return jax.vmap(lambda b: history_stat(problem, b))(betas)
 
 
 @persistent_jit
@@ -377,6 +415,7 @@ def build_problem(
     duration = run_duration(block, th, n_bounces)
     dt = stable_dt(block, beta_cap, mode=mode, joint=joint)
     resps = []
+    ref_theta = ref_t_last = None
     if target == "e":
         e_val = check_e_target(e, mode)
         # Housner's bounce k keeps e^(2k) of the release energy (impact map x flight energy
@@ -386,6 +425,15 @@ def build_problem(
         ref, resps = housner_peaks(block, e_val, th, mode, n_bounces, duration)
         _check_informative(ref, e_val, th, mode, n_bounces)
         targets = jax.device_put(np.asarray([abs(e_val)]))
+        ref_theta = jax.device_put(np.stack([np.asarray(r.theta) for r in resps]))
+        ref_t_last = jax.device_put(
+            np.asarray(
+                [
+                    last_compared_peak_time(jax.tree.map(lambda x, i=i: np.asarray(x)[i], ref))
+                    for i in range(th.size)
+                ]
+            )
+        )
     else:
         zeros = jax.device_put(np.zeros((th.size, n_bounces + 1)))
         ref = metrics.Peaks(
@@ -412,6 +460,8 @@ def build_problem(
         duration=duration,
         joint=joint,
         hysteresis=hysteresis(mode),
+        ref_theta=ref_theta,
+        ref_t_last=ref_t_last,
     )
     return out, resps
 
@@ -479,21 +529,29 @@ def _check_informative(ref: metrics.Peaks | None, e, th, mode, n_bounces):
     )
 
 
-def _range_message(problem, g0, g1, beta_max, e_range):
+def _range_message(problem, g0, g1, beta_max, e_range, edge=False):
     if problem.kind == "e":
         e = float(problem.targets[0])
         lo, hi = e_range
-        fix = (
-            "; the 'clipped' dashpot saturates: use rj.Joint(dashpot='closed') for lower e"
-            if problem.joint.dashpot == "clipped"
-            else ", or widen beta_max for lower e"
-        )
+        if problem.joint.dashpot == "clipped":
+            fix = "; the 'clipped' dashpot saturates: use rj.Joint(dashpot='closed') for lower e"
+        elif edge:
+            fix = ""
+        else:
+            fix = ", or widen beta_max for lower e"
         if problem.mode == "one_sided":
             fix += "; or use target='bounces' (the facade default)"
+        where = (
+            " (beyond it the DEM keeps no bounce with "
+            f"{100 * MIN_ENERGY_RATIO:g} % of its release energy)"
+            if edge
+            else ""
+        )
         return (
             f"target e={e:.4g} is not reachable by this DEM block: over beta in "
-            f"[0, {beta_max:.4g}] s its restitution spans e = {lo:.4f} (beta_max) to {hi:.4f} "
-            f"(beta = 0; {problem.joint}). Pick e in that range{fix}."
+            f"[0, {beta_max:.4g}] s{where} its restitution spans e = {lo:.4f} (beta = "
+            f"{beta_max:.4g} s) to {hi:.4f} (beta = 0; {problem.joint}). Pick e in that "
+            f"range{fix}."
         )
     return (
         f"the facade bounce targets {np.round(np.asarray(problem.targets), 4).tolist()} are not "
@@ -541,15 +599,16 @@ def check_range(problem, scan, own_s, beta_max):
     return (e_lo, e_hi)
 
 
-def check_reachable(problem, g0, g1, beta_max, e_range):
+def check_reachable(problem, g0, g1, beta_max, e_range, edge=False):
     """ValueError (with the reachable range and the fix) unless the signed gap changes sign
-    between ``beta = 0`` (``g0 >= 0``) and ``beta_max`` (``g1 <= 0``)."""
+    between ``beta = 0`` (``g0 >= 0``) and ``beta_max`` (``g1 <= 0``); ``edge``: ``beta_max``
+    is where the DEM's last informative bounce vanishes (the message says so)."""
     if not (np.isfinite(g0) and np.isfinite(g1)):
         raise ValueError(
             "a DEM calibration run failed (non-finite or unstable); check the block and beta_max."
         )
     if not (g0 >= 0.0 >= g1):
-        raise ValueError(_range_message(problem, g0, g1, beta_max, e_range))
+        raise ValueError(_range_message(problem, g0, g1, beta_max, e_range, edge))
 
 
 # --------------------------------------------------------------------------- fit_e

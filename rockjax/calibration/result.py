@@ -7,12 +7,10 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import jax
 import numpy as np
 
-from .. import metrics
 from ..block import Block
-from ..response import Response, e_exp
+from ..response import Response, impact_threshold
 
 BOUNCE_FRACTIONS = (0.68, 0.80, 1.00)
 """Facade targets (``target="bounces"``): ``e_exp`` (Eq. 6) of bounces 1-3 as fractions of
@@ -68,11 +66,24 @@ class Calibration:
         history: Per iteration: ``"beta"`` [s] and ``"loss"`` [-] (NumPy arrays).
         n_simulations: DEM (or Housner, for ``fit_e``) runs spent, per release amplitude.
         n_iterations: Optimiser iterations.
-        converged: True only if the target is met within its stated tolerance and every
-            number is finite: ``target="e"`` and :func:`rockjax.fit_e`: ``|e_effective - e| <=``
-            :data:`E_TOL`; ``target="bounces"``: each ``e_exp`` in its band of
-            :data:`BOUNCE_BANDS`; and the method's stopping rule was met before ``max_iter``.
+        converged: True only if the method's stopping rule was met before ``max_iter``, every
+            number is finite, and: ``target="e"`` and :func:`rockjax.fit_e`: the target is met,
+            ``|e_effective - e| <=`` :data:`E_TOL`; ``target="bounces"`` (a best match, the
+            paper's procedure): the loss at ``beta`` is no larger than at any ``beta`` of the
+            seed scan (the fit found the loss's minimum, not a worse point); whether the
+            bounces fall in their bands is ``target_met``.
         reason: Empty when ``converged``; else why not, in words.
+        target_met: Whether the target is met within its tolerance: ``target="e"``:
+            ``|e_effective - e| <= E_TOL``; ``target="bounces"``: each ``e_exp`` in its band of
+            :data:`BOUNCE_BANDS` (no ``beta`` of this DEM may meet all three:
+            docs/calibration.md, "Facades").
+        target_missed: Empty when ``target_met``; else what was missed, in words (e.g.
+            "bounce 1: e_exp = 75.6 % of |e_ISR|, outside the band 64-72 %").
+        loss_kind: ``"peaks"`` (the bounce loss) or ``"history"`` (``fit_beta(loss=
+            "history")``: ``loss`` is the history error, ``converged`` means its minimum was
+            found no worse than at the start, the bounce-loss optimum, and ``target_met`` tells
+            whether the DEM's ``e`` there is the target within :data:`E_TOL`).
+        beta_start: ``loss="history"``: the bounce-loss optimum it started from [s]; else None.
         e_range: Reachable ``(e at beta_max, e at beta = 0)`` [-] (``fit_beta`` with
             ``target="e"``; None otherwise). Both ends finite (else ``fit_beta`` raises).
         beta_max: Upper end of the searched range [s].
@@ -104,6 +115,10 @@ class Calibration:
     housner: Response | None
     root_finish: bool = False
     reason: str = ""
+    target_met: bool = False
+    target_missed: str = ""
+    loss_kind: str = "peaks"
+    beta_start: float | None = None
 
     @property
     def e_target(self):
@@ -120,7 +135,8 @@ class Calibration:
         else:
             fitted = f"beta = {self.beta:.4g} s"
             e3 = ", ".join(_num(v, 3) for v in np.asarray(self.e_exp, float))
-            target = f"bounces: e_exp 1-3 {e3}"
+            met = "in their bands" if self.target_met else f"best match; {self.target_missed}"
+            target = f"bounces: e_exp 1-3 {e3} ({met})"
         return (
             f"Calibration({fitted}{_block(self.dem)}: {target}; {_verdict(self)}; {self.method}, "
             f"{self.n_iterations} iterations, {self.n_simulations} runs, {self.seconds:.3g} s)"
@@ -225,6 +241,25 @@ def bounces_missed(e3: np.ndarray, e_isr_value: float) -> list[str]:
     return out
 
 
+def minimum_missed(loss: float, scan_losses) -> list[str]:
+    """Why a best-match fit (``target="bounces"``) did not end at its loss's minimum, in words
+    (empty: its ``loss`` is no larger than the smallest finite loss of the seed scan).
+
+    Args:
+        loss: The loss at the result [-].
+        scan_losses: The losses at the seed scan's ``beta`` values [-].
+    """
+    finite = np.asarray(scan_losses, float)
+    finite = finite[np.isfinite(finite)]
+    if finite.size and loss > finite.min() * (1.0 + 1e-9) + 1e-15:
+        return [
+            f"the loss at the result, {loss:.4g}, is larger than {finite.min():.4g} at a point "
+            "of the seed scan: not the loss's minimum (a local minimum or a cliff where a bounce "
+            "vanishes; try method='grid')"
+        ]
+    return []
+
+
 def history_peak_gap(
     fitted: Response, measured: Response, n_compared: int, t_scale: float, mode: str
 ) -> float:
@@ -307,41 +342,9 @@ def bounce_amplitudes(resp: Response, mode: str) -> np.ndarray:
 
 def bounce_peaks(resp: Response, mode: str) -> tuple[np.ndarray, np.ndarray]:
     """Bounce peak times [s] and amplitudes ``|theta_k|``, ``k >= 1`` [rad], found in NumPy on
-    the saved history.
-
-    Without impact detection (an independent path from the loss's
-    :func:`rockjax.metrics.peaks`): the local maxima of ``y = |theta|`` (one-sided
-    ``max(theta, 0)``: the rebounds), where two neighbours whose valley stays above half the
-    smaller one are one flight (penalty-contact wobble on it; the larger is kept), each
-    refined by a parabola through three samples and kept only if it exceeds
-    ``metrics.RELATIVE_BOUNCE`` of the previous kept one (the release first) and twice the
-    impact threshold (micro-vibration in contact is no bounce).
-    """
-    th = np.asarray(resp.theta, float)
-    y = np.abs(th) if mode == "two_sided" else np.maximum(th, 0.0)
-    idx = np.flatnonzero((y[1:-1] > y[:-2]) & (y[1:-1] >= y[2:])) + 1
-    merged = [0]  # the release: a noisy maximum on its flight is the release, not a bounce
-    for i in idx:
-        if y[merged[-1] : i + 1].min() > 0.5 * min(y[merged[-1]], y[i]):
-            if y[i] > y[merged[-1]]:
-                merged[-1] = i
-        else:
-            merged.append(i)
-    merged = merged[1:]
-    t = np.asarray(resp.t, float)
-    prev = abs(float(th[0]))
-    floor = 2.0 * hysteresis(mode) * float(resp.eta)
-    times, amps = [], []
-    for i in merged:
-        y0, y1, y2 = y[i - 1], y[i], y[i + 1]
-        den = y0 - 2.0 * y1 + y2
-        s = min(max(0.5 * (y0 - y2) / den, -1.0), 1.0) if den < 0 else 0.0  # vertex offset
-        a = y1 - 0.25 * (y0 - y2) * s
-        if a > max(floor, metrics.RELATIVE_BOUNCE * prev):
-            times.append(t[i] + s * (t[i + 1] - t[i]))
-            amps.append(a)
-            prev = a
-    return np.asarray(times, float), np.asarray(amps, float)
+    the saved history: :meth:`rockjax.Response.bounces` (:func:`rockjax.response.bounce_peaks`),
+    the one finder of responses and calibrations."""
+    return resp.bounces(mode)
 
 
 def restitution(resp: Response, n_bounces: int, mode: str) -> float:
@@ -364,20 +367,11 @@ def restitution(resp: Response, n_bounces: int, mode: str) -> float:
 
 
 def bounce_e_exp(resp: Response, mode: str) -> np.ndarray:
-    """Eq. (6) of bounces 1-3 from :func:`bounce_amplitudes` [-] (NaN for a bounce that did not
+    """Eq. (6) of bounces 1-3 (:meth:`rockjax.Response.e_exp`) [-] (NaN for a bounce that did not
     happen)."""
-    amp = bounce_amplitudes(resp, mode)[:3]
-    th0 = abs(float(np.asarray(resp.theta)[0]))
-    padded = np.full(3, np.nan)  # a missing bounce gives NaN; one shape, one compiled program
-    padded[: amp.size] = amp
-    return np.asarray(_e_exp(padded, th0, float(resp.eta), np.arange(1, 4)))
+    return resp.e_exp(3, mode=mode)
 
 
-_e_exp = jax.jit(e_exp)  # one small program instead of an eager compilation of each operation
-
-
-def hysteresis(mode: str) -> float:
-    """Impact threshold of the calibration's peak finders as a fraction of ``eta`` [-]:
-    :data:`rockjax.metrics.HYSTERESIS` two-sided, a tenth of it one-sided (facade bounces are
-    small)."""
-    return metrics.HYSTERESIS if mode == "two_sided" else 0.1 * metrics.HYSTERESIS
+hysteresis = impact_threshold
+"""Impact threshold of the calibration's peak finders as a fraction of ``eta`` [-]
+(:func:`rockjax.response.impact_threshold`)."""
