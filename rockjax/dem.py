@@ -433,6 +433,9 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
         ft, fs, w_s = shear_force(
             state.fs_base[i], xd_pt, dt, params.ks_base[i], fn_el, params.tan_phi, params.beta, frac
         )
+        # the shear dashpot, off where the contact slides: its weight depends on the state and
+        # is read by the force and the dashpot matrix, so both are computed once
+        ft, c_s = computed_once(ft, w_s * params.beta * params.ks_base[i])
         fx, fy, mom = fx + ft, fy + fn, mom + (ry * ft - rx * fn)
         fn_base.append(fn)
         fs_base.append(fs)
@@ -440,7 +443,6 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
         c_n = frac * params.beta * params.kn_base[i]
         if clipped:  # a clipped dashpot acts only where the total force is compressive
             c_n = jnp.where(fn > 0, c_n, 0.0)
-        c_s = w_s * params.beta * params.ks_base[i]  # a sliding contact's dashpot is off
         cyy, cyt, ctt = cyy + c_n, cyt - c_n * rx, ctt + c_n * rx * rx
         cxx, cxt, ctt = cxx + c_s, cxt + c_s * ry, ctt + c_s * ry * ry
     fs_wall = []
@@ -456,6 +458,7 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
         ft, fs, w_s = shear_force(
             state.fs_wall[j], slip, dt, params.ks_wall[j], fn_el, params.tan_phi, params.beta, frac
         )
+        ft, c_s = computed_once(ft, w_s * params.beta * params.ks_wall[j])
         fx, fy, mom = fx + fn, fy + ft, mom + (ry * fn - rx * ft)
         if wall is not None:  # the inclined wall's normal (1, -slope): a vertical component
             fy, mom = fy - slope * fn, mom + rx * slope * fn
@@ -464,7 +467,6 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
         c_n = frac * params.beta * params.kn_wall[j]
         if clipped:
             c_n = jnp.where(fn > 0, c_n, 0.0)
-        c_s = w_s * params.beta * params.ks_wall[j]
         cxx, cxt, ctt = cxx + c_n, cxt + c_n * ry, ctt + c_n * ry * ry
         cyy, cyt, ctt = cyy + c_s, cyt - c_s * rx, ctt + c_s * rx * rx
     damping = (cxx, cyy, cxt, cyt, ctt)
@@ -703,6 +705,7 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
     f_s, stick = coulomb(f_s - ks * v0 * dt, params.tan_phi * fn_el)
     arm_bar = jnp.where(s0 > 0.0, s1 / jnp.where(s0 > 0.0, s0, 1.0), 0.0)
     cn, cs = beta * kn, stick * beta * ks
+    f_s, cs = computed_once(f_s, cs)  # read by the forces and the dashpot matrix
     ft = f_s - cs * v0
     mom = mom_n + f_s * arm_bar - cs * v1
     n = (cn * n0, cn * n1, cn * n2)

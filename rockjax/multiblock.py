@@ -881,7 +881,9 @@ def _interface(
         f_s = f_s * jnp.where(whole > 0.0, jnp.clip(kept / safe, 0.0, 1.0), 0.0)
         # the shear dashpot acts only while the face sticks (rockjax.contact.coulomb)
         f_s, stick = coulomb(f_s - ks * v0 * dt, p.tan_phi * fn_el)
-        ks_d = stick * ks  # the shear dashpot's stiffness
+        # the shear dashpot's stiffness: state-dependent now, and read by the forces and the
+        # dashpot blocks, so computed once with the spring
+        f_s, ks_d = computed_once(f_s, stick * ks)
         tau_bar = jnp.where(s0 > 0.0, s1 / jnp.where(s0 > 0.0, s0, 1.0), 0.0)
         fs_new = (f_s,)
         fs_mom_tau = f_s * tau_bar  # int of the spring force times tau
