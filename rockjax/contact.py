@@ -3,7 +3,9 @@ and zero cohesion, and stiffness-proportional (Rayleigh beta) dashpots.
 
 Per sub-contact of tributary area ``A`` the springs are ``k_n = j_kn A`` and ``k_s = j_ks A``
 (``j_kn = E/h``, ``j_ks = j_kn / (2 (1 + nu))``), and the dashpots ``c_n = beta k_n``,
-``c_s = beta k_s`` (stiffness-proportional Rayleigh damping, Eq. 1 with alpha = 0).
+``c_s = beta k_s`` (stiffness-proportional Rayleigh damping, Eq. 1 with alpha = 0). The shear
+dashpot acts only while the contact sticks: a sliding contact's tangent shear stiffness is
+zero, and it carries the Coulomb force ``tan(phi) N`` alone (:func:`coulomb`).
 
 Damping conventions (``dashpot=``):
 
@@ -121,11 +123,35 @@ def normal_force(delta, delta_dot, k_n, beta, dashpot: str, dt=None):
     return f, f_el, frac
 
 
+def coulomb(trial, limit):
+    """The Mohr-Coulomb cap of a shear spring and whether the joint sticks.
+
+    The joint's shear dashpot ``beta k_s`` is stiffness-proportional damping on the joint's
+    incremental (tangent) shear stiffness: ``k_s`` while the spring is elastic, zero while the
+    joint slides at its cap. So the dashpot acts only where the joint sticks, and the total
+    shear force of a sliding joint is the Coulomb force ``tan(phi) N`` (docs/theory.md,
+    "Friction on the whole joint").
+
+    Args:
+        trial: Elastic trial force of the shear spring [N].
+        limit: Its Mohr-Coulomb cap ``tan(phi) N`` [N] (>= 0).
+
+    Returns:
+        ``(f_s, stick)``: the spring force clipped to ``[-limit, limit]`` [N], and 1.0 where
+        the trial is within the cap (the joint sticks and its shear dashpot acts), 0.0 where
+        it exceeds it (the joint slides) [-].
+    """
+    f_s = jnp.clip(trial, -limit, limit)
+    return f_s, jnp.where(jnp.abs(trial) <= limit, 1.0, 0.0)
+
+
 def shear_force(fs_old, slip_rate, dt, k_s, f_el, tan_phi, beta, frac=None):
     """Incremental elastic-plastic shear force [N] (Mohr-Coulomb, no cohesion, no tension).
 
     The elastic trial force ``fs_old - k_s * slip_rate * dt`` is capped at ``tan(phi) * f_el``
-    (the elastic normal force; zero on an open contact, which also resets the spring).
+    (the elastic normal force; zero on an open contact, which also resets the spring). The
+    dashpot ``beta k_s`` acts only while the contact sticks (:func:`coulomb`): a sliding
+    contact carries the Coulomb force alone.
 
     Args:
         fs_old: Shear spring force at the previous step [N].
@@ -139,15 +165,16 @@ def shear_force(fs_old, slip_rate, dt, k_s, f_el, tan_phi, beta, frac=None):
             default 1 where ``f_el > 0``.
 
     Returns:
-        ``(f_total, fs_new)``: the shear force on the block including its dashpot, and the new
-        spring force to carry to the next step [N].
+        ``(f_total, fs_new, weight)``: the shear force on the block including its dashpot and
+        the new spring force to carry to the next step [N], and the weight of the shear
+        dashpot ``frac * stick`` [-] (its dashpot is ``weight * beta * k_s``).
     """
-    limit = tan_phi * f_el
-    fs_new = jnp.clip(fs_old - k_s * slip_rate * dt, -limit, limit)
+    fs_new, stick = coulomb(fs_old - k_s * slip_rate * dt, tan_phi * f_el)
     if frac is None:
         frac = jnp.where(f_el > 0, 1.0, 0.0)
-    f = fs_new - frac * beta * k_s * slip_rate
-    return f, fs_new
+    weight = frac * stick
+    f = fs_new - weight * beta * k_s * slip_rate
+    return f, fs_new, weight
 
 
 # ------------------------------------------------------- the face law's closed part (geometry)

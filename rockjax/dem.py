@@ -78,6 +78,7 @@ from .constants import G
 from .contact import (
     Joint,
     closed_interval,
+    coulomb,
     crossing,
     face_integrands,
     insert_cut,
@@ -431,9 +432,12 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
         fn, fn_el, frac = normal_force(
             -y_pt, -yd_pt, params.kn_base[i], params.beta, params.dashpot, dt_onset
         )
-        ft, fs = shear_force(
+        ft, fs, w_s = shear_force(
             state.fs_base[i], xd_pt, dt, params.ks_base[i], fn_el, params.tan_phi, params.beta, frac
         )
+        # the shear dashpot, off where the contact slides: its weight depends on the state and
+        # is read by the force and the dashpot matrix, so both are computed once
+        ft, c_s = computed_once(ft, w_s * params.beta * params.ks_base[i])
         fx, fy, mom = fx + ft, fy + fn, mom + (ry * ft - rx * fn)
         fn_base.append(fn)
         fs_base.append(fs)
@@ -441,7 +445,6 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
         c_n = frac * params.beta * params.kn_base[i]
         if clipped:  # a clipped dashpot acts only where the total force is compressive
             c_n = jnp.where(fn > 0, c_n, 0.0)
-        c_s = frac * params.beta * params.ks_base[i]
         cyy, cyt, ctt = cyy + c_n, cyt - c_n * rx, ctt + c_n * rx * rx
         cxx, cxt, ctt = cxx + c_s, cxt + c_s * ry, ctt + c_s * ry * ry
     fs_wall = []
@@ -454,9 +457,10 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
             delta, delta_dot, params.kn_wall[j], params.beta, params.dashpot, dt_onset
         )
         slip = yd_pt if wall is None else yd_pt - rise
-        ft, fs = shear_force(
+        ft, fs, w_s = shear_force(
             state.fs_wall[j], slip, dt, params.ks_wall[j], fn_el, params.tan_phi, params.beta, frac
         )
+        ft, c_s = computed_once(ft, w_s * params.beta * params.ks_wall[j])
         fx, fy, mom = fx + fn, fy + ft, mom + (ry * fn - rx * ft)
         if wall is not None:  # the inclined wall's normal (1, -slope): a vertical component
             fy, mom = fy - slope * fn, mom + rx * slope * fn
@@ -465,7 +469,6 @@ def _contact_forces(params: DemParams, state: DemState, dt, c, s, wall=None):
         c_n = frac * params.beta * params.kn_wall[j]
         if clipped:
             c_n = jnp.where(fn > 0, c_n, 0.0)
-        c_s = frac * params.beta * params.ks_wall[j]
         cxx, cxt, ctt = cxx + c_n, cxt + c_n * ry, ctt + c_n * ry * ry
         cyy, cyt, ctt = cyy + c_s, cyt - c_s * rx, ctt + c_s * rx * rx
     damping = (cxx, cyy, cxt, cyt, ctt)
@@ -700,12 +703,13 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
             whole, kept = cb_old - ca_old, kb - ka
         safe = jnp.where(whole > 0.0, whole, 1.0)
         f_s = f_s * jnp.where(whole > 0.0, jnp.clip(kept / safe, 0.0, 1.0), 0.0)
-    limit = params.tan_phi * fn_el
-    f_s = jnp.clip(f_s - ks * v0 * dt, -limit, limit)
+    # the shear dashpot acts only while the face sticks (rockjax.contact.coulomb)
+    f_s, stick = coulomb(f_s - ks * v0 * dt, params.tan_phi * fn_el)
     arm_bar = jnp.where(s0 > 0.0, s1 / jnp.where(s0 > 0.0, s0, 1.0), 0.0)
-    ft = f_s - beta * ks * v0
-    mom = mom_n + f_s * arm_bar - beta * ks * v1
-    cn, cs = beta * kn, beta * ks
+    cn, cs = beta * kn, stick * beta * ks
+    f_s, cs = computed_once(f_s, cs)  # read by the forces and the dashpot matrix
+    ft = f_s - cs * v0
+    mom = mom_n + f_s * arm_bar - cs * v1
     n = (cn * n0, cn * n1, cn * n2)
     t_ = (cs * s0, cs * s1, cs * s2)
     power = 0.0
@@ -720,7 +724,7 @@ def _face(params: DemParams, state: DemState, dt, c, s, wall: bool, hist, motion
             power = x0_dot * fn + slope_dot * (state.y * fn + mom_n)
             # the shear on the rising wall: its vertical velocity rate (x_pivot - x - rx),
             # and the shear traction's moment is the integral of f_t (-rx) here
-            mom_s = f_s * arm_bar - beta * ks * v1
+            mom_s = f_s * arm_bar - cs * v1
             rate = _wall_frame(params, motion).rate
             power = power + _wall_rise(params, motion, state.x) * ft + rate * mom_s
     else:

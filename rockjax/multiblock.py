@@ -57,6 +57,7 @@ from .constants import G
 from .contact import (
     Joint,
     closed_interval,
+    coulomb,
     crossing,
     face_integrands,
     insert_cut,
@@ -755,15 +756,18 @@ def _point_sums(p: AssemblyParams, k, pts, lo, width, ends, hist, kn, beta, dt, 
     if p.face:
         f, f_el, frac = normal_force(delta, rate, kn, beta, p.dashpot, dt_onset)
         wf, wfn, wf_el = wgt * frac, wgt * f, wgt * f_el
+        ws = wf  # the face's shear dashpot: weighted by its one spring's stick in _interface
         fs_arr, fs_sum = None, 0.0
     else:
         kn_i, ks_i = p.kn_line[k] * wgt, p.ks_line[k] * wgt
         f, f_el, frac = normal_force(delta, rate, kn_i, beta, p.dashpot, dt_onset)
         fs_old = jnp.stack([jnp.asarray(v, float) for v in hist])
-        _, fs_arr = shear_force(fs_old, slip, dt, ks_i, f_el, p.tan_phi, beta, frac)
+        # a sliding point's shear dashpot is off (rockjax.contact.coulomb)
+        _, fs_arr, w_s = shear_force(fs_old, slip, dt, ks_i, f_el, p.tan_phi, beta, frac)
         wf, wfn, wf_el, fs_sum = wgt * frac, f, 0.0, fs_arr
+        ws = wgt * w_s
     wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
-    terms = _sum_terms(wfn, wf_el, wn, wf, tau, slip, fs_sum)
+    terms = _sum_terms(wfn, wf_el, wn, ws, tau, slip, fs_sum)
     live = [i for i, term in enumerate(terms) if not _zero(term)]
     sums = [0.0] * len(terms)
     for i, total in zip(live, sum_together(*(terms[i] for i in live))):
@@ -867,7 +871,7 @@ def _interface(
     )
     fn, fn_el, fn1, n0, n1, n2, s0, s1, s2, v0, v1, fs_tot, fs_tau = (sums[i] for i in range(13))
     if p.face:
-        kn_c, ks_c = kn, ks
+        kn_c = kn
         (f_s,) = hist
         # the resultant shear spring keeps the share of its closed length that stays closed
         # (rockjax.dem's "uniform" release); the previous penetration is delta - dt delta_dot
@@ -878,16 +882,20 @@ def _interface(
         whole, kept = cb_old - ca_old, kb - ka
         safe = jnp.where(whole > 0.0, whole, 1.0)
         f_s = f_s * jnp.where(whole > 0.0, jnp.clip(kept / safe, 0.0, 1.0), 0.0)
-        limit = p.tan_phi * fn_el
-        f_s = jnp.clip(f_s - ks * v0 * dt, -limit, limit)
+        # the shear dashpot acts only while the face sticks (rockjax.contact.coulomb)
+        f_s, stick = coulomb(f_s - ks * v0 * dt, p.tan_phi * fn_el)
+        # the shear dashpot's stiffness: state-dependent now, and read by the forces and the
+        # dashpot blocks, so computed once with the spring
+        f_s, ks_d = computed_once(f_s, stick * ks)
         tau_bar = jnp.where(s0 > 0.0, s1 / jnp.where(s0 > 0.0, s0, 1.0), 0.0)
         fs_new = (f_s,)
         fs_mom_tau = f_s * tau_bar  # int of the spring force times tau
     else:
-        kn_c, ks_c = p.kn_line[k], p.ks_line[k]  # the weights above carry the areas
+        # the weights above carry the areas, and the shear sums each point's stick
+        kn_c, ks_d = p.kn_line[k], p.ks_line[k]
         f_s, fs_mom_tau = fs_tot, fs_tau
         fs_new = tuple(fs_arr[i] for i in range(len(pts)))
-    ft = f_s - beta * ks_c * v0
+    ft = f_s - beta * ks_d * v0
     # a moving wall's normal force acts along its normal (1, -slope) (not normalised: fn is
     # the horizontal component, as in rockjax.simulate_dem); the dashpot matrix keeps the
     # fixed wall's rows, as simulate_dem's does
@@ -904,11 +912,11 @@ def _interface(
             + dn * fn1
             + as_[0] * f_s
             + ds * fs_mom_tau
-            - beta * ks_c * (as_[0] * v0 + ds * v1)
+            - beta * ks_d * (as_[0] * v0 + ds * v1)
         )
 
     f_u = (fx, fy, moment(an_f, as_u))
-    cn, cs = beta * kn_c, beta * ks_c
+    cn, cs = beta * kn_c, beta * ks_d
     # dashpot rows: upper (e, arm_u), lower -(e, arm_l), arms affine in tau; the lower arm is
     # the upper one shifted by kappa = (X_u - X_l) x e, a constant
     kappa_n = kappa_s = 0.0
@@ -930,7 +938,7 @@ def _interface(
         # rate (x_pivot - x_pt) under the shear force (int f_t tau: the shear's moment sums)
         y_lo, dy = ends[0][3], ends[1][3] - ends[0][3]
         x_lo, dx = ends[0][2], ends[1][2] - ends[0][2]
-        ft_tau = fs_mom_tau - beta * ks_c * v1
+        ft_tau = fs_mom_tau - beta * ks_d * v1
         power = x0_dot * fn + slope_dot * (y_lo * fn + dy * fn1)
         power = power + rate * ((x_pivot - x_lo) * ft - dx * ft_tau)
     if ground:

@@ -8,6 +8,7 @@ from scipy.integrate import quad
 
 import rockjax as rj
 from rockjax.cli import main as cli_main
+from rockjax.constants import G
 
 PARAPET = dict(b=0.25, h=3.0)  # the paper's 3.00 x 0.250 m geometry
 SQUAT = dict(b=0.2, h=1.5)
@@ -90,3 +91,54 @@ def count_compiles():
     finally:
         jax.monitoring.unregister_event_duration_listener(on_duration)
         jax.monitoring.unregister_event_listener(on_event)
+
+
+def coulomb_slip(ag, dt, mu, g=G):
+    """Slip [m] of a rigid block on a base with Coulomb friction ``mu`` [-], at the samples of
+    the base acceleration ``ag`` [m/s^2] (``dt`` [s] apart, linear in between, as the DEM
+    reads a record), integrated exactly piece by piece.
+
+    Relative to the base the block obeys ``u'' = -ag - mu g sign(u')`` while it slides, and it
+    sticks (``u' = 0``) while ``|ag| <= mu g``. On a piece ``ag = a + s tau`` is linear, so a
+    sliding phase has ``u'`` quadratic and ``u`` cubic in ``tau``: the piece is split where
+    ``u'`` returns to zero (the block sticks, or turns if ``|ag| > mu g`` there) and where a
+    sticking block's ``|ag|`` reaches ``mu g`` (it starts to slide away from ``ag``)."""
+    ag = np.asarray(ag, float)
+    cap = mu * g
+    u = np.zeros(ag.shape[0])
+    pos = vel = 0.0
+    sense = 0  # 0 sticking; +-1 the sign of u' while sliding
+
+    def start(a):  # the state of a block at rest relative to the base under ag = a
+        return 0 if abs(a) <= cap else (-1 if a > 0 else 1)
+
+    for k in range(ag.shape[0] - 1):
+        a0, s = ag[k], (ag[k + 1] - ag[k]) / dt
+        t = 0.0
+        while t < dt:
+            rest, a = dt - t, a0 + s * t
+            if sense == 0:
+                # stick until |ag| reaches the cap
+                ends = [(lim - a) / s for lim in (cap, -cap) if s != 0.0]
+                ends = [tau for tau in ends if 0.0 < tau <= rest]
+                if not ends:
+                    break
+                t += min(ends)
+                sense = -1 if a0 + s * t > 0 else 1
+                continue
+            acc = a + sense * cap  # u'' = -acc - s tau
+            # the first root of u'(tau) = vel - acc tau - s tau^2 / 2 within the piece
+            if s == 0.0:
+                roots = [vel / acc] if acc != 0.0 else []
+            else:
+                disc = acc * acc + 2.0 * s * vel
+                roots = [(-acc + sg * np.sqrt(disc)) / s for sg in (1, -1)] if disc >= 0 else []
+            roots = [tau for tau in roots if 1e-14 * dt < tau <= rest]
+            tau = min(roots) if roots else rest
+            pos += vel * tau - 0.5 * acc * tau**2 - s * tau**3 / 6.0
+            vel -= acc * tau + 0.5 * s * tau**2
+            t += tau
+            if roots:
+                vel, sense = 0.0, start(a0 + s * t)
+        u[k + 1] = pos
+    return u

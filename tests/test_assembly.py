@@ -7,7 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import smooth_push
+from helpers import coulomb_slip, smooth_push
 from scipy.integrate import solve_ivp
 
 import rockjax as rj
@@ -27,6 +27,9 @@ UPLIFT_LAG = 0.1  # a ramp of 2 lambda in 4 s lags the static onset (measured 2.
 VMAP_RTOL = 1e-9  # vmap vs a Python loop: the same arithmetic, fused differently (1e-12)
 PUSHOVER_RTOL = 2e-3  # DEM pushover peak below the rigid limit (corner joint compliance)
 FD_RTOL = 1e-3  # central differences, step 1e-6 relative, of a piecewise-smooth contact response
+# slip history of a squat stack on stiff joints vs rigid Coulomb sliding: the joints' elastic
+# shear and small rocking (measured below 1e-3 for both joints)
+COULOMB_RTOL = 0.01
 
 ONE = rj.Block(b=0.2, h=1.5)
 CORNERS = rj.Joint(n_sub=2)
@@ -899,3 +902,27 @@ def test_moving_wall_bad_input_is_refused_with_a_fix(user_view):
         rj.simulate_dem(
             wall, gm, mode="one_sided", wall_motion=other, support_motion=BUILDING, storey=1
         )
+
+
+# ----------------------------------------------------------------------------- friction
+
+
+@pytest.mark.parametrize("joint", [rj.Joint(), CORNERS], ids=["face", "corners"])
+def test_squat_stack_slides_as_rigid_coulomb(joint):
+    """Reference: rigid Coulomb sliding of the whole stack on the record, integrated exactly
+    in the test (helpers.coulomb_slip), with the friction of the base joint ``mu (W + N)``:
+    the stack's deceleration ``mu g (1 + N/W)``. The bed joint sticks: it must carry
+    ``mu W_1 (1 + N/W)``, below its cap ``mu (W_1 + N)``. The joints' shear dashpots act only
+    while they stick (docs/theory.md, "Friction on the whole joint"); on the sliding joint
+    they used to hold the stack nearly still."""
+    blk = rj.Block(b=1.0, h=0.25)  # each b/h = 4, the stack's 2 > mu = tan(30 deg)
+    weight = 2.0 * float(blk.m) * G / float(blk.length)  # W [N/m]
+    wall = Assembly.stack([blk, blk], overburden=0.5 * weight)
+    gm = rj.GroundMotion.ricker(pga_g=1.2, period=0.5, dt=0.002)
+    r = simulate_assembly(wall, gm, beta=rj.beta_dejong(blk), joint=joint, phi_deg=30.0)
+    u = coulomb_slip(gm.ag, gm.dt, 1.5 * np.tan(np.radians(30.0)))
+    x = np.asarray(r.x)
+    assert abs(u[-1]) > 0.01
+    for k in range(2):  # the stack slides as one
+        assert x[-1, k] == pytest.approx(u[-1], rel=COULOMB_RTOL)
+        assert np.max(np.abs(x[:, k] - u)) < COULOMB_RTOL * np.max(np.abs(u))

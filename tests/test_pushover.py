@@ -6,6 +6,8 @@ References, derived here independently of the library:
   ``lambda W`` at the centroid, the weight ``W`` and an overburden ``P`` at the top centre,
   ``lambda(theta) = [W (b cos - h sin) + P (b cos - 2 h sin)] / [W (h cos + b sin)]``, so
   ``lambda_0 = (b/h) (1 + P/W)``;
+* Coulomb friction: a squat block (``b/h > mu``) or stack slides on its base joint at
+  ``lambda W = mu (W + P)``, ``mu = tan(phi)``;
 * the rigid block on a tensionless Winkler joint (the integrated face law's statics): the
   pressure is a trapezoid (full contact) or a triangle of length ``ell = sqrt(2 N / (k s))``
   from the toe (``N = W + P``, ``k`` the joint stiffness per unit face length, ``s = sin
@@ -33,6 +35,8 @@ WINKLER_TOL = 0.01  # [-] of lambda_0: the whole flexible curve against its stat
 STIFFNESS_RTOL = 0.02  # the initial branch's slope (the fit over a slightly curved branch)
 RATE_TOL = 0.01  # [-] of lambda_0: the brief's loading-rate criterion
 ONE_SIDED_TOL = 2e-3  # [-] of lambda_0: a facade pulled off its wall is a parapet
+FRICTION_RTOL = 1e-3  # a squat block sliding under the pull carries exactly its Coulomb force
+# (the inertia is taken off lambda); measured 3e-11, the brief's limit is 2 %
 
 
 def _rigid_lambda(theta, b, h, psi=0.0):
@@ -381,3 +385,32 @@ def test_restrained_three_block_pushover_peaks_at_the_limit_analysis():
     assert abs(lam.max() / lam0 - 1) < ASM_PEAK_RTOL, lam.max() / lam0
     th = np.asarray(cap.theta_blocks)[-1]
     assert th[1] == pytest.approx(th[0], rel=0.05) and th[2] == pytest.approx(-2 * th[0], rel=0.05)
+
+
+# ----------------------------------------------------------------------------- friction
+
+
+@pytest.mark.parametrize("kind", ["block", "stack"])
+@pytest.mark.parametrize("joint", [rj.Joint(), rj.Joint(n_sub=2)], ids=["face", "corners"])
+def test_squat_pushover_plateaus_at_coulomb_friction(kind, joint):
+    """Reference: Coulomb friction on the base joint, ``lambda W = mu (W + P)`` (the bed joint
+    of the stack sticks: it carries ``lambda W_1 = mu W_1 (1 + P/W)``, below its cap
+    ``mu (W_1 + P)``). A sliding joint's shear dashpot is off (docs/theory.md, "Friction on
+    the whole joint"): it used to add ``beta k_s`` times the sliding rate, 1.7-2.1 times the
+    friction at this rate."""
+    from rockjax.assembly import Assembly
+
+    mu = np.tan(np.radians(30.0))
+    whole = rj.Block(b=1.0, h=0.5)  # b/h = 2 > mu: it slides; its p sets the pull's duration
+    weight = float(whole.m) * G / float(whole.length)  # W [N/m]
+    p_top = 0.5 * weight
+    kw = dict(phi_deg=30.0, joint=joint, d_over_b=0.05, n_out=40, duration=20.0 / float(whole.p))
+    if kind == "block":
+        cap = pushover(whole, overburden=p_top, **kw)
+    else:
+        half = rj.Block(b=1.0, h=0.25)
+        cap = pushover(Assembly.stack([half, half], overburden=p_top), **kw)
+    lam = np.asarray(cap.load_multiplier) / (mu * (1.0 + p_top / weight))
+    assert lam.max() < 1.0 + FRICTION_RTOL, lam.max()
+    assert np.max(np.abs(lam[20:] - 1.0)) < FRICTION_RTOL, lam[20:]  # the plateau
+    assert np.max(np.abs(np.asarray(cap.theta))) < 1e-4  # it slid without rocking
