@@ -78,7 +78,11 @@ def cases():
             pulse,
             dict(beta=beta_f, mode="one_sided", gap=1e-3, wall_motion=bldg),
         ),
-        "squat_sliding_pulse": (squat, pulse.scaled(2.5), dict(beta=float(rj.beta_dejong(squat)))),
+        "squat_sliding_pulse": (
+            squat,
+            pulse.scaled(2.5),
+            dict(beta=float(rj.beta_dejong(squat)), phi_deg=30.0),
+        ),
         "stack2_ricker": (two, ricker, dict(beta=beta_p)),
         "stack3_pulse": (three, pulse, dict(beta=beta_p)),
         "stack2_restrained_building": (
