@@ -26,17 +26,17 @@ STIFF = dict(b=0.5, h=1.0, E=1.8e13)  # Winkler peak 0.997 b/h: the contact's sh
 SLENDER_STIFF = dict(b=0.17, h=1.5, E=1.8e12)
 PAPER_WALL = dict(b=0.17, h=1.5)  # E = 1.8 GPa, rho = 1800 (the defaults), the paper's first
 
-PEAK_RTOL = 0.01  # the brief's limit; the Winkler peak (0.3 % low) and the dynamic overshoot
+PEAK_RTOL = 0.01  # the stated accuracy; the Winkler peak (0.3 % low) and the dynamic overshoot
 # where the stiff block starts to rock (0.5 % high at the default rate) are inside it
 RIGID_TOL = 0.02  # [-] of lambda_0: the descending branch against the rigid block (the
 # contact's offset ~ ell/3 over h/2 is 0.1-0.3 % here)
 WINKLER_TOL = 0.01  # [-] of lambda_0: the whole flexible curve against its statics (measured
 # 0.4 %: the block's inertia where it starts to rock)
 STIFFNESS_RTOL = 0.02  # the initial branch's slope (the fit over a slightly curved branch)
-RATE_TOL = 0.01  # [-] of lambda_0: the brief's loading-rate criterion
+RATE_TOL = 0.01  # [-] of lambda_0: the documented loading-rate criterion
 ONE_SIDED_TOL = 2e-3  # [-] of lambda_0: a facade pulled off its wall is a parapet
 FRICTION_RTOL = 1e-3  # a squat block sliding under the pull carries exactly its Coulomb force
-# (the inertia is taken off lambda); measured 3e-11, the brief's limit is 2 %
+# (the inertia is taken off lambda); measured 3e-11
 
 
 def _rigid_lambda(theta, b, h, psi=0.0):
@@ -254,7 +254,7 @@ def test_bad_input_is_refused(kwargs, match):
 # by virtual work, written out here for these geometries (and rockjax.collapse_multiplier).
 ASM_E = 1.8e10
 ASM_KW = dict(joint=rj.Joint(n_sub=2), d_over_b=0.05, n_out=40)
-ASM_PEAK_RTOL = 0.02  # the brief's limit; measured -0.01 % (stack), +0.5 % (top: the top
+ASM_PEAK_RTOL = 0.02  # the stated accuracy; measured -0.01 % (stack), +0.5 % (top: the top
 # block's inertia where it starts to rock under the still-rising pull), +0.07 % (hinge)
 ASM_RIGID_TOL = 0.02  # [-] of lambda_0: past the peak, the stack against the one-block curve
 ASM_TRAVEL_RTOL = 0.15  # the pull's end d/b against the requested 0.05 (elastic share)
