@@ -247,6 +247,7 @@ def fit_beta(
     scan_losses = loss_s
 
     converged = True
+    walked = True  # a best match's walk to a local minimum ended (or was not needed)
     n_iter = 0
     root_finish = False
     final = None  # the DEM run and statistics at the result, when already computed
@@ -290,7 +291,6 @@ def fit_beta(
             n_sims += n_add
             hist_b += hb
             hist_l += hl
-            converged = converged and walked
         if problem.kind == "e":
             # the gap is monotone and bracketed: finish by false position where L-BFGS stopped
             # short (usually no run: the fit is already there); the run that checks it is the
@@ -327,6 +327,7 @@ def fit_beta(
         root_finish,
         final,
         scan_losses,
+        walked=walked,
     )
 
 
@@ -553,6 +554,7 @@ def _finish(
     scan_losses=(),
     loss_kind="peaks",
     history_start=None,
+    walked=True,
 ):
     dem, (loss, gap, _, peak), h_err = final or _final_runs(problem, beta, h_resps)
     if loss_kind == "history":
@@ -593,9 +595,13 @@ def _finish(
         # a best match (the paper's procedure): converged means the loss's minimum was found;
         # whether the bounces fall in their measured bands is reported beside it
         missed = bounces_missed(e3, float(e_isr(problem.block)))
-        converged, reason = verdict(
-            converged, minimum_missed(loss, scan_losses), beta=beta, loss=loss
-        )
+        off = minimum_missed(loss, scan_losses)
+        if not walked:
+            off.append(
+                f"the loss still fell {MATCH_ROUNDS} scans (about {MATCH_ROUNDS * 4 * MATCH_STEP:.0%} "
+                "of beta) from where L-BFGS stopped: no local minimum found (try method='grid')"
+            )
+        converged, reason = verdict(converged, off, beta=beta, loss=loss)
     target_missed = "; ".join(missed)
     return Calibration(
         beta=float(beta),
