@@ -1,4 +1,4 @@
-"""Benchmarks of the multi-block DEM (``rockjax.multiblock.simulate_assembly``): block-steps
+"""Benchmarks of the multi-block DEM (``rockjax.simulate_dem``): block-steps
 per second for stacks of 1, 2, 4 and 8 blocks, one history and a vmapped batch of records,
 and the per-step cost of a two-block wall against the single-block ``rj.simulate_dem``.
 A script that prints tables, not a test (STYLE.md section 5).
@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 from _timing import load, machine, timed  # noqa: E402
 
 from rockjax.assembly import Assembly  # noqa: E402
-from rockjax.multiblock import simulate_assembly, stable_dt_assembly  # noqa: E402
+from rockjax.dem import simulate_assembly, stable_dt_assembly  # noqa: E402
 
 BLOCK = dict(b=0.23, h=1.5)
 RECORD_DT = 0.01

@@ -79,19 +79,13 @@ from .building import ShearBuilding, wall_top_motion
 from .compilation import persistent_jit
 from .constants import G
 from .contact import Joint
-from .dem import simulate_dem, stable_dt
+from .dem import simulate_assembly, simulate_dem, stable_dt, stable_dt_assembly
 from .housner import P_DT_TARGET, batch_runs, check_restitution, simulate_housner
 from .motion import GroundMotion
-from .multiblock import (
-    check_storey,
-    check_walls_in_building,
-    simulate_assembly,
-    stable_dt_assembly,
-    storey_supports,
-)
 from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
+from .supports import check_storey, check_walls_in_building, storey_supports
 from .three_branch import ThreeBranchFit, ThreeBranchLaw
 
 xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
@@ -851,7 +845,7 @@ def _support_histories(building, ag, dt: float, storey: int, restrained: bool, w
     top, the storey's drift [m] and its rate [m/s] (floor ``storey`` less floor ``storey - 1``,
     :meth:`rockjax.ShearBuilding.response`), as :func:`rockjax.simulate_assembly` computes them
     in a single run; with ``wall_height`` [m], last, the return walls' ``(u_top, v_top)``
-    relative to the base floor at that height (:func:`rockjax.multiblock.storey_supports`)."""
+    relative to the base floor at that height (:func:`rockjax.supports.storey_supports`)."""
 
     def one(a):
         base, top, *walls = storey_supports(

@@ -12,7 +12,6 @@ hook in its own scan. Derivations, the loading-rate study and the paper's four w
 docs/pushover.md.
 """
 
-import dataclasses
 import math
 
 import equinox as eqx
@@ -33,8 +32,6 @@ from .block import Block
 from .constants import G
 from .contact import Joint
 from .dem import MODES, dem_params, initial_state, stable_dt, step
-from .multiblock import assembly_params, initial_assembly_state, stable_dt_assembly
-from .multiblock import step as assembly_step
 from .relations import beta_dejong
 
 CONTROL_STIFFNESS = 50.0
@@ -254,7 +251,7 @@ def pushover(
         t_settle=jnp.asarray(t_settle),
         p_top=jnp.asarray(p_top),
     )
-    state0 = initial_state(params)
+    state0 = initial_state(block, params)
     force, ax, theta, d = _pull(params, state0, control, jnp.asarray(dt), n_in, n_out + n_settle)
     # the supports' horizontal reaction: the control force less the block's inertia (which
     # is small but not nil where the block starts to rock)
@@ -328,13 +325,14 @@ class _Control(eqx.Module):
         return u, v
 
     def load(self, state, t, h):
-        """``(Fx, Fy, M)`` on the centroid [N, N, N m] and the control force [N]."""
+        """``(Fx, Fy, M)`` on the centroid of the one block [N, N, N m] and the control force
+        [N]."""
         u, v = self.target(t)
-        f = self.k * (u - state.x) + self.c * (v - state.vx)
+        f = self.k * (u - state.x[0]) + self.c * (v - state.vx[0])
         ramp = jnp.where(self.t_settle > 0, jnp.minimum(t / self.t_settle, 1.0), 1.0)
         p = self.p_top * ramp
         # vertical load at the top centre, body point (0, h/2): arm rx = (h/2) sin(theta)
-        return (f, -p, 0.5 * h * state.s * p), f
+        return [(f, -p, 0.5 * h * state.s[0] * p)], f
 
 
 @eqx.filter_jit
@@ -342,17 +340,19 @@ def _pull(params, state0, control: _Control, dt, n_in: int, n_samples: int):
     """Scan the DEM step under the control load; the control force [N], theta [rad] and top
     displacement [m] every ``n_in`` steps (sample 0 at ``t = 0``)."""
 
+    h = params.h[0]
+
     def inner(carry, _):
         st, k = carry
-        load, _ = control.load(st, k * dt, params.h)
-        st, _ = step(params, st, 0.0, 0.0, dt, load=load)
+        load, _ = control.load(st, k * dt, h)
+        st, *_ = step(params, st, 0.0, 0.0, dt, load=load, one_history=True)
         return (st, k + 1.0), None
 
     def outer(carry, _):
         st, k = carry
-        load, f = control.load(st, k * dt, params.h)
-        new, (ax, *_) = step(params, st, 0.0, 0.0, dt, load=load)
-        out = (f, ax, st.theta, st.x + 0.5 * params.h * st.s)
+        load, f = control.load(st, k * dt, h)
+        new, acc, *_ = step(params, st, 0.0, 0.0, dt, load=load, one_history=True)
+        out = (f, acc[0][0], st.theta[0], st.x[0] + 0.5 * h * st.s[0])
         carry, _ = jax.lax.scan(inner, (new, k + 1.0), length=n_in - 1)
         return carry, out
 
@@ -390,11 +390,8 @@ def _pushover_assembly(assembly, beta, d_over_b, duration, n_out, joint, phi_deg
     mono = Block(b=b0, h=height, length=blocks[0].length)
     p = min([float(b.p) for b in blocks] + [float(mono.p)])
     duration = _pull_duration(duration, d_over_b, p)
-    # one history (rockjax.multiblock, AssemblyParams.single_history)
-    params = dataclasses.replace(
-        assembly_params(assembly, beta, joint=joint, phi_deg=phi_deg), single_history=True
-    )
-    dt = stable_dt_assembly(assembly, beta, joint=joint)
+    params = dem_params(assembly, beta, joint=joint, phi_deg=phi_deg)
+    dt = stable_dt(assembly, beta, joint=joint)
     masses = [float(b.m) for b in blocks]
     total = sum(masses)
     weight = total * G
@@ -428,7 +425,7 @@ def _pushover_assembly(assembly, beta, d_over_b, duration, n_out, joint, phi_deg
         p_top=jnp.asarray(0.0),
     )
     share = jnp.asarray(masses) / total
-    state0 = initial_assembly_state(assembly, params, 0.0, joint)
+    state0 = initial_state(assembly, params)
     force, inertia, theta, d = _pull_assembly(
         params, state0, control, share, jnp.asarray(dt), jnp.asarray(n_in), n_out + n_settle
     )
@@ -470,13 +467,13 @@ def _pull_assembly(params, state0, control: _Control, share, dt, n_in, n_samples
     def inner(_, carry):
         st, k = carry
         ld, _ = load(st, k * dt)
-        st, _ = assembly_step(params, st, 0.0, 0.0, dt, load=ld)
+        st, *_ = step(params, st, 0.0, 0.0, dt, load=ld, one_history=True)
         return st, k + 1.0
 
     def outer(carry, _):
         st, k = carry
         ld, f = load(st, k * dt)
-        new, acc = assembly_step(params, st, 0.0, 0.0, dt, load=ld)
+        new, acc, *_ = step(params, st, 0.0, 0.0, dt, load=ld, one_history=True)
         inertia = sum(masses[j] * acc[j][0] for j in range(n))
         top = jnp.stack([st.x[j] - params.x0[j] + 0.5 * params.h[j] * st.s[j] for j in range(n)])
         out = (f, inertia, jnp.stack(st.theta), top)

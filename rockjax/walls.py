@@ -18,9 +18,7 @@ toe).
 import jax.numpy as jnp
 import numpy as np
 
-from ._checks import check_series_pair, concrete, is_array_pair
-from .compilation import is_traced
-from .motion import GroundMotion
+from ._checks import concrete
 
 MAX_WALL_ROTATION = 0.3
 """Largest wall rotation ``|u_top| / H`` accepted [rad]: :func:`wall_line` is accurate to 1e-7
@@ -93,66 +91,3 @@ def check_wall_rotation(u_top, height, arg: str = "wall_motion", names=("u_top",
             "moving wall's model holds below it; buildings drift a few percent). rockjax works "
             f"in metres: did you give millimetres? Divide {names[0]} and {names[1]} by 1000."
         )
-
-
-def wall_arrays(wall_motion, motion, height, ag, dt_out, n_record):
-    """``(u_top, v_top)`` [m, m/s] of a moving wall at the run's samples.
-
-    Args:
-        wall_motion: A pair ``(u_top, v_top)`` of arrays with one value per record sample, or
-            what :func:`rockjax.wall_top_motion` accepts (a ``ShearBuilding``, the wall's
-            absolute acceleration as a ``GroundMotion``, ``(height, GroundMotion)`` pairs).
-        motion: The ground motion (None: free motion, a zero record).
-        height: The height at which ``u_top`` is taken [m] (the facade's height).
-        ag: The run's ground acceleration [m/s^2] (its samples: the record, padded or cut to
-            the run's duration).
-        dt_out: The run's sample step [s].
-        n_record: The record's number of samples (None: free motion, ``ag``'s).
-
-    Past the record's end (a longer duration) the wall holds its last position; a shorter
-    duration truncates it. NumPy arrays for concrete histories, jnp when traced.
-
-    Raises:
-        ValueError: a history without one finite value per record sample.
-    """
-    n = ag.shape[0]
-    xp = np if concrete(ag) is not None else jnp
-    n_rec = n if n_record is None else n_record
-    if is_array_pair(wall_motion):
-        u, v = wall_motion
-    else:
-        # lazily: building imports dem, which imports this module
-        from .building import ShearBuilding, wall_top_motion
-        from .dem import padded_length
-
-        gm = motion if motion is not None else GroundMotion.zeros(n * dt_out, dt_out)
-        a_rec = concrete(gm.ag)
-        if (
-            isinstance(wall_motion, ShearBuilding)
-            and a_rec is not None
-            and not is_traced(wall_motion)
-        ):
-            # the building's solve, compiled per record length, runs on the record padded to
-            # its bucket (its last sample repeated; the solve is causal, so the first n_rec
-            # samples are the same), then cut on the host: one compilation per bucket
-            n_bucket = padded_length(n_rec)
-            gm = GroundMotion(ag=np.pad(a_rec, (0, n_bucket - n_rec), mode="edge"), dt=gm.dt)
-            u, v = wall_top_motion(wall_motion, gm, height)
-            u, v = np.asarray(u)[:n_rec], np.asarray(v)[:n_rec]
-        else:
-            u, v = wall_top_motion(wall_motion, gm, height)
-    check_series_pair(
-        "wall_motion",
-        ("u_top [m]", "v_top [m/s]"),
-        (u, v),
-        n_rec,
-        "Sample the wall at the record's dt.",
-    )
-    check_wall_rotation(u, height)
-    xp = np if concrete(u) is not None and concrete(v) is not None and xp is np else jnp
-    u, v = xp.asarray(u, float), xp.asarray(v, float)
-    if n != n_rec:  # a longer duration: the wall holds its last position; shorter: truncated
-        pad = max(0, n - n_rec)
-        u = xp.pad(u, (0, pad), mode="edge")[:n]
-        v = xp.pad(v, (0, pad))[:n]
-    return u, v

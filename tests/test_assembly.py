@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 import rockjax as rj
 from rockjax.assembly import Assembly, collapse_multiplier
 from rockjax.constants import G
-from rockjax.multiblock import simulate_assembly, stable_dt_assembly
+from rockjax.dem import simulate_assembly, stable_dt_assembly
 from rockjax.response import find_peaks
 
 # Tolerances, each with its reason.

@@ -16,7 +16,7 @@ import pytest
 import rockjax as rj
 from rockjax.assembly import Assembly
 from rockjax.constants import G
-from rockjax.multiblock import simulate_assembly
+from rockjax.dem import simulate_assembly
 
 # 0.3 x 1.0 m under 0.08 x 1.0 m, the top block's back flush with the lower one's
 B0, H0, B1, H1, X1 = 0.3, 1.0, 0.08, 1.0, -0.11

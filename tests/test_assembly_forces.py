@@ -11,7 +11,7 @@ import pytest
 import rockjax as rj
 from rockjax.assembly import Assembly, collapse_multiplier
 from rockjax.constants import G
-from rockjax.multiblock import simulate_assembly, stable_dt_assembly
+from rockjax.dem import simulate_assembly, stable_dt_assembly
 
 # Tolerances, each with its reason.
 STATIC_RTOL = 1e-9  # settled statics: the residual vibration is damped out (measured < 1e-12)

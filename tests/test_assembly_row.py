@@ -9,7 +9,7 @@ import pytest
 import rockjax as rj
 from rockjax.assembly import Assembly, collapse_multiplier
 from rockjax.constants import G
-from rockjax.multiblock import simulate_assembly, stable_dt_assembly
+from rockjax.dem import simulate_assembly, stable_dt_assembly
 
 EQUAL_RTOL = 1e-10  # apart, each block is simulate_dem's scheme: round-off only (measured 4e-15)
 ENERGY_RTOL = 5e-3  # central differences conserve a shadow energy (as for a stack)

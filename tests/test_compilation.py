@@ -295,16 +295,17 @@ def _dem_pulse(n, amp_g=0.2, dt=DEM_DT):
 
 
 def _dem_unpadded(block, gm, resp, *, mode="two_sided", gap=0.0, beta=0.0, save=(), wall=None):
-    """The same run through ``dem.run_prepared`` at the record's own length (no padding, no
-    true length): the program ``simulate_dem`` ran before records were padded."""
+    """The same run through ``dem.run`` at the record's own length (no padding, no true
+    length): the program ``simulate_dem`` ran before records were padded."""
     params = dem.dem_params(block, beta, mode=mode, gap=gap)
     dt = float(resp.extras["dt"])
     n_in = round(gm.dt / dt)
     ag = np.asarray(gm.ag, dtype=float)
-    return dem.run_prepared(
-        params, dem.initial_state(params), ag, np.zeros_like(ag), np.asarray(dt), gm.dt, n_in,
-        save, True, wall,
+    r = dem.run(
+        params, dem.initial_state(block, params), ag, np.zeros_like(ag), np.asarray(dt),
+        np.asarray(gm.dt), n_in, save, True, None, wall,
     )  # fmt: skip
+    return dem.block_response(r, jnp.asarray(block.b, float))
 
 
 def _assert_same(got, want):
@@ -329,7 +330,7 @@ def _count_compiles(run):
 
 
 def test_dem_records_of_one_bucket_compile_once_and_match_the_unpadded_run(parapet):
-    # Reference: the unpadded run (dem.run_prepared at the record's own length), which is what
+    # Reference: the unpadded run (dem.run at the record's own length), which is what
     # simulate_dem ran before; and a count of XLA compilations (none after the first record).
     lengths = (230, 301, 417, 555)
     assert len({dem.padded_length(n) for n in lengths}) == 1
@@ -356,16 +357,16 @@ def test_dem_padding_changes_nothing_even_wild_padding(parapet):
     for amp_g in (0.2, 0.3):  # rocks (to 0.4 eta); overturns
         gm = _dem_pulse(300, amp_g=amp_g)
         params = dem.dem_params(parapet, 1e-3)
-        s0 = dem.initial_state(params)
+        s0 = dem.initial_state(parapet, params)
         dt = dem.stable_dt(parapet, 1e-3)
         n_in = int(np.ceil(DEM_DT / dt - 1e-9))
         step = np.asarray(DEM_DT / n_in)
         ag = np.asarray(gm.ag)
         n_pad = 2 * dem.SCAN_CHUNK + 17  # not whole chunks: the chunk shrinks to divide it
         wild = np.concatenate([ag, np.full(n_pad - ag.size, 50.0)])
-        args = (DEM_DT, n_in, ("forces",), False)
-        padded = dem.run_prepared(params, s0, wild, np.zeros(n_pad), step, *args, n=np.int32(300))
-        want = dem.run_prepared(params, s0, ag, np.zeros(300), step, *args)
+        args = (np.asarray(DEM_DT), n_in, ("forces",), False)
+        padded = dem.run(params, s0, wild, np.zeros(n_pad), step, *args, n=np.int32(300))
+        want = dem.run(params, s0, ag, np.zeros(300), step, *args)
         assert bool(want.overturned) == (amp_g > 0.25)
         assert int(padded.status) == int(want.status) == 0
         for a, b in zip(jax.tree.leaves(padded), jax.tree.leaves(want)):
@@ -437,13 +438,13 @@ def test_an_eager_dem_call_compiles_no_error_callback(parapet):
     gm = _dem_pulse(50)
     dt = rj.stable_dt(parapet)
     params = dem.dem_params(parapet)
-    s0 = dem.initial_state(params)
+    s0 = dem.initial_state(parapet, params)
     ag = jnp.asarray(gm.ag)
 
     def run(throw):
         def f(a):
-            return dem.run_prepared(
-                params, s0, a, jnp.zeros_like(a), np.asarray(dt), DEM_DT, 1, (), throw
+            return dem.run(
+                params, s0, a, jnp.zeros_like(a), np.asarray(dt), np.asarray(DEM_DT), 1, (), throw
             ).theta
 
         return f

@@ -1,0 +1,358 @@
+"""The DEM's parameters and state: one family for a block (an assembly of one) and for
+assemblies, the time-step rule and its stiffest mode."""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._checks import (
+    GAP_HINT,
+    GAP_NEEDS_ONE_SIDED,
+    check_choice,
+    check_gap,
+    check_kind,
+    check_nonnegative,
+    check_scalar,
+    concrete,
+)
+from ..assembly import ASSEMBLY_GAP_UNUSED, Assembly
+from ..block import Block
+from ..compilation import persistent_jit
+from ..contact import Joint
+
+MODES = ("two_sided", "one_sided")
+
+DT_SAFETY = 0.5
+"""Largest fraction of the explicit stability limit a default step may take."""
+
+DT_ACCURACY = {"two_sided": 1.0, "one_sided": 0.35}
+"""Default ``accuracy`` per mode for the integrated face law (``n_sub="exact"``): the step is
+``accuracy / (omega_max (1 + zeta))`` [s]. With these the first-impact restitution of parapets
+with h/b 4-24 at beta up to 1.5 beta_DeJong is within 1e-3 of its dt -> 0 limit (measured
+4.6e-4), and the rebound peaks of damped facades above 1 % of eta within 2 % of a 16x finer
+step (measured 1.8 %; undamped, bounces 1-2 within 0.5 %, while a third undamped bounce of
+0.2 x 1.5 m is 3.7 % off: the contact modes ring; docs/verification.md, "DEM time step:
+convergence"). Facades need the finer step for their later, small bounces (at 0.7: bounce 2
+of 0.11 x 2.4 m undamped 2.7 % off, of 0.2 x 1.5 m at beta_Hcrit 4 %)."""
+
+DT_ACCURACY_SUB = {"two_sided": 0.5, "one_sided": 0.35}
+"""Default ``accuracy`` per mode with integer ``n_sub`` (point sub-contacts: a point's force
+switches on whole as it closes, so parapets need half the face law's step)."""
+
+
+def check_joint(joint) -> None:
+    if not isinstance(joint, Joint):
+        raise TypeError(
+            f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
+        )
+
+
+class DemParams(eqx.Module):
+    """Everything the DEM step needs, as arrays (built by :func:`dem_params`); a single block
+    is an assembly of one.
+
+    Per block (shape ``(n_blocks,)``): ``m`` [kg], ``I_c`` [kg m^2], ``b``, ``h``, ``eta``,
+    ``x0``, ``y0`` (centre at rest [m]). Per interface ``i`` (``links[i] = (k, other, kind)``,
+    :attr:`rockjax.assembly.Assembly.interfaces`): ``lo``, ``hi`` (ends of the contact face in
+    block ``k``'s frame [m]), ``kn_line``, ``ks_line`` (stiffness per unit face length
+    [N/m^2]; in a stack interface ``k`` is under block ``k``, and its stiffness is also that
+    of block ``k``'s back face on a return wall). Scalars: ``beta`` [s], ``tan_phi``,
+    ``top_load`` [N], ``gap`` [m], ``k_top`` (top restraint spring [N/m]), ``wall_gap``
+    (return wall behind the back faces [m]). ``one_sided``: the blocks' back faces meet
+    return walls (a facade); ``row``: the blocks stand side by side."""
+
+    m: jax.Array
+    I_c: jax.Array
+    b: jax.Array
+    h: jax.Array
+    eta: jax.Array
+    x0: jax.Array
+    y0: jax.Array
+    lo: jax.Array
+    hi: jax.Array
+    kn_line: jax.Array
+    ks_line: jax.Array
+    beta: jax.Array
+    tan_phi: jax.Array
+    top_load: jax.Array
+    gap: jax.Array
+    k_top: jax.Array
+    wall_gap: jax.Array
+    n_sub: int | str = eqx.field(static=True)
+    dashpot: str = eqx.field(static=True)
+    onset: str = eqx.field(static=True)
+    restrained: bool = eqx.field(static=True)
+    one_sided: bool = eqx.field(static=True)
+    links: tuple = eqx.field(static=True, default=())
+    row: bool = eqx.field(static=True, default=False)
+
+    @property
+    def n(self) -> int:
+        return self.m.shape[0]
+
+    @property
+    def face(self) -> bool:
+        return self.n_sub == "exact"
+
+
+class DemState(eqx.Module):
+    """Central-difference state of the blocks, one scalar per block in each tuple: centroid
+    ``x, y`` [m] (base frame, ground surface ``y = 0``), ``c, s`` (cos, sin theta), ``vx, vy``
+    [m/s] and ``w`` [rad/s] at the half step, ``theta`` [rad], ``theta_max`` (running max of
+    ``|theta|``); ``fs``: per interface, the shear spring force(s) [N] (one per face with the
+    integrated face law, one per sub-contact with integer ``n_sub``); ``fs_wall``: those of
+    each block's back face on the return wall (empty without return walls); ``d_max``: the
+    running max of each block's top displacement ``|x - x0 + (h/2) sin(theta)|`` [m]."""
+
+    x: tuple
+    y: tuple
+    c: tuple
+    s: tuple
+    vx: tuple
+    vy: tuple
+    w: tuple
+    theta: tuple
+    theta_max: tuple
+    fs: tuple
+    fs_wall: tuple = ()
+    d_max: tuple = ()
+
+
+def as_assembly(body: Block | Assembly) -> Assembly:
+    """A block as the assembly of one it is (an assembly unchanged); else a ValueError."""
+    check_kind(
+        "block",
+        body,
+        (Block, Assembly),
+        "Build one with rj.Block(b=0.25, h=3.0), or a wall of blocks with "
+        "rj.Assembly.stack([...]).",
+    )
+    return Assembly.stack([body]) if isinstance(body, Block) else body
+
+
+def default_phi_deg(mode: str) -> float:
+    """The paper's friction angle [deg]: 50 for parapets, 30 for facades."""
+    return 50.0 if mode == "two_sided" else 30.0
+
+
+def dem_params(
+    body: Block | Assembly,
+    beta=0.0,
+    *,
+    mode: str = "two_sided",
+    gap=0.0,
+    joint: Joint = Joint(),
+    phi_deg=None,
+) -> DemParams:
+    """Collect the block (or assembly), joint and damping into :class:`DemParams` (traceable).
+
+    Args:
+        body: A :class:`rockjax.Block` (an assembly of one) or a :class:`rockjax.Assembly`.
+        beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1).
+        mode: ``"two_sided"``, or ``"one_sided"``: a facade, every block's back face (-x)
+            against a return wall ``gap`` behind it.
+        gap: Distance between the back faces and the return wall at rest [m] (one-sided).
+        joint: The joint of every interface (:class:`rockjax.Joint`).
+        phi_deg: Friction angle of every interface [deg]; default :func:`default_phi_deg`.
+    """
+    check_choice("mode", mode, MODES)
+    unused = ASSEMBLY_GAP_UNUSED if isinstance(body, Assembly) else GAP_NEEDS_ONE_SIDED
+    check_gap(gap, used=mode == "one_sided", unused=unused, hint=GAP_HINT)
+    assembly = as_assembly(body)
+    check_joint(joint)
+    if phi_deg is None:
+        phi_deg = default_phi_deg(mode)
+    check_nonnegative(
+        "beta", beta, "s", "beta is the stiffness-proportional Rayleigh coefficient.", scalar=True
+    )
+    check_scalar("phi_deg", phi_deg, "deg", "e.g. phi_deg=50.")
+    phi = concrete(phi_deg)
+    if phi is not None and not (0.0 < phi < 90.0):
+        raise ValueError(f"phi_deg (friction angle, degrees) must be in (0, 90); got {phi_deg}.")
+    blocks = assembly.blocks
+
+    def arr(values):
+        return jnp.stack([jnp.asarray(v, float) for v in values])
+
+    links = assembly.interfaces
+    # the dashpot solve is block-tridiagonal: each joint couples block k to the ground or to
+    # block k - 1 (a stack or a row)
+    assert all(other in (-1, k - 1) for k, other, _ in links)
+    ends = [assembly.face(i) for i in range(len(links))]
+    # a bed joint takes j_kn = E/h of the block above it (the paper's rule); a head joint is
+    # smooth (no shear spring, no shear dashpot: docs/assemblies.md "Blocks side by side")
+    # with j_kn = E/b of its block, the block's deformability across the joint
+    kn, ks = [], []
+    for k, _, kind in links:
+        blk = blocks[k]
+        if kind == "bed":
+            kn.append(blk.j_kn * blk.length)
+            ks.append(blk.j_ks * blk.length)
+        else:
+            kn.append(blk.E / blk.b * blk.length)
+            ks.append(0.0 * blk.length)
+    if assembly.layout == "row":
+        y0 = [0.5 * b.h for b in blocks]
+    else:
+        y0, base = [], 0.0
+        for b in blocks:
+            y0.append(base + 0.5 * b.h)
+            base = base + b.h
+    top = blocks[-1]
+    return DemParams(
+        m=arr([b.m for b in blocks]),
+        I_c=arr([b.I_c for b in blocks]),
+        b=arr([b.b for b in blocks]),
+        h=arr([b.h for b in blocks]),
+        eta=arr([b.eta for b in blocks]),
+        x0=arr(assembly.x_offset),
+        y0=arr(y0),
+        lo=arr([e[0] for e in ends]),
+        hi=arr([e[1] for e in ends]),
+        kn_line=arr(kn),
+        ks_line=arr(ks),
+        beta=jnp.asarray(beta, float),
+        tan_phi=jnp.tan(jnp.deg2rad(jnp.asarray(phi_deg, float))),
+        top_load=jnp.asarray(assembly.top_load, float),
+        gap=jnp.asarray(assembly.gap, float),
+        # the top restraint is as stiff as the top block's whole bed joint in compression
+        k_top=jnp.asarray(top.j_kn * top.b * top.length, float),
+        wall_gap=jnp.asarray(gap, float),
+        n_sub=joint.n_sub,
+        dashpot=joint.dashpot,
+        onset=joint.onset,
+        restrained=assembly.top == "restrained",
+        one_sided=mode == "one_sided",
+        links=links,
+        row=assembly.layout == "row",
+    )
+
+
+def span(p: DemParams, k: int, wall: bool = False):
+    """The face coordinates ``(lo, hi)`` [m] of interface ``k``'s face, or with ``wall`` of
+    block ``k``'s back face on the return wall (``t`` up the face from its centre)."""
+    return (-0.5 * p.h[k], 0.5 * p.h[k]) if wall else (p.lo[k], p.hi[k])
+
+
+def springs(p: DemParams, k: int, wall: bool = False):
+    """The springs of interface ``k`` (or of block ``k``'s back face on the return wall) for
+    the all-closed stiffness: positions ``t`` along the face [m] and the normal and shear
+    stiffnesses [N/m] (the two-point Gauss rule of the face for the integrated law: it gives
+    the continuous joint's all-closed stiffness exactly)."""
+    lo, hi = span(p, k, wall)
+    width = hi - lo
+    if p.face:
+        tau = np.array([0.5 - 0.5 / math.sqrt(3.0), 0.5 + 0.5 / math.sqrt(3.0)])
+        wts = np.array([0.5, 0.5])
+    else:
+        tau = np.linspace(0.0, 1.0, p.n_sub)
+        wts = np.ones(p.n_sub) / (p.n_sub - 1)
+        wts[0] = wts[-1] = 0.5 / (p.n_sub - 1)
+    t = lo + width * jnp.asarray(tau)
+    w = jnp.asarray(wts) * width
+    return t, p.kn_line[k] * w, p.ks_line[k] * w
+
+
+def omega_max(p: DemParams):
+    """Highest circular frequency [rad/s] of the block or assembly at rest with every spring
+    closed. Every subset of closed contacts has a smaller stiffness matrix (in the PSD order),
+    so this bounds the frequency of any contact state."""
+    n = p.n
+    k_mat = jnp.zeros((3 * n, 3 * n))
+
+    def rows(e, rx, ry):
+        # a unit force along e at offset (rx, ry) from a centroid: (Fx, Fy, clockwise moment)
+        one = jnp.ones_like(rx)
+        return jnp.stack([e[0] * one, e[1] * one, ry * e[0] - rx * e[1]], axis=-1)
+
+    for i, (k, other, kind) in enumerate(p.links):
+        t, kn, ks = springs(p, i)
+        # the face point at rest from block k's centroid, the joint's normal and tangent
+        if kind == "bed":
+            rx, ry, nrm, tng = t, -0.5 * p.h[k] + 0.0 * t, (0.0, 1.0), (1.0, 0.0)
+        else:
+            rx, ry, nrm, tng = -0.5 * p.b[k] + 0.0 * t, t, (1.0, 0.0), (0.0, 1.0)
+        a_n, a_s = rows(nrm, rx, ry), rows(tng, rx, ry)
+        cols = list(range(3 * k, 3 * k + 3))
+        if other >= 0:
+            lx = p.x0[k] + rx - p.x0[other]
+            ly = p.y0[k] + ry - p.y0[other]
+            a_n = jnp.concatenate([-rows(nrm, lx, ly), a_n], axis=-1)
+            a_s = jnp.concatenate([-rows(tng, lx, ly), a_s], axis=-1)
+            cols = list(range(3 * other, 3 * other + 3)) + cols
+        sub = jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
+        idx = jnp.asarray(cols)
+        k_mat = k_mat.at[idx[:, None], idx[None, :]].add(sub)
+    for k in range(n):
+        if p.one_sided:
+            # the back face (-b/2, t): horizontal motion (1, 0, t), vertical (0, 1, b/2)
+            t, kn, ks = springs(p, k, wall=True)
+            zero, one = jnp.zeros_like(t), jnp.ones_like(t)
+            a_n = jnp.stack([one, zero, t], axis=-1)
+            a_s = jnp.stack([zero, one, 0.5 * p.b[k] * one], axis=-1)
+            sub = jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
+            idx = jnp.arange(3 * k, 3 * k + 3)
+            k_mat = k_mat.at[idx[:, None], idx[None, :]].add(sub)
+    if p.restrained:
+        a = jnp.zeros(3 * n).at[3 * n - 3].set(1.0).at[3 * n - 1].set(0.5 * p.h[-1])
+        k_mat = k_mat + p.k_top * jnp.outer(a, a)
+    mass = jnp.stack([p.m, p.m, p.I_c], axis=-1).reshape(-1)
+    inv = 1.0 / jnp.sqrt(mass)
+    return jnp.sqrt(jnp.max(jnp.linalg.eigvalsh(k_mat * inv[:, None] * inv[None, :])))
+
+
+@jax.jit
+def critical_dt(p: DemParams):
+    """Stability limit [s] of central differences with centred dashpots: ``2 / omega_max``
+    (damping does not lower it)."""
+    return 2.0 / omega_max(p)
+
+
+@jax.jit
+def default_step(p: DemParams, accuracy):
+    """The default step [s] before rounding: ``accuracy / (omega_max (1 + zeta))``,
+    ``zeta = beta omega_max / 2``, at most ``DT_SAFETY * critical_dt(p)``.
+
+    The step resolves the stiffest contact mode (``omega_max dt = accuracy`` at ``beta = 0``:
+    central differences err by ``(omega dt)^2 / 24`` in its frequency) and, when that mode is
+    overdamped, the relaxation time ``~1 / (2 zeta omega_max)`` of its dashpot, which the
+    centred (trapezoidal) dashpot resolves only while ``2 zeta omega_max dt`` is small. The
+    impact velocity drops out: the penalty contact is linear, so the penetration and the
+    onset band scale together with it.
+    """
+    return steps(p, accuracy)[1]
+
+
+def steps(p: DemParams, accuracy):
+    """``(critical_dt, default_step)`` [s] from one eigenvalue solve."""
+    w = omega_max(p)
+    zeta = 0.5 * p.beta * w
+    return 2.0 / w, jnp.minimum(accuracy / (w * (1.0 + zeta)), DT_SAFETY * 2.0 / w)
+
+
+_steps_program = persistent_jit(steps)
+
+
+def steps_compiled(p: DemParams, accuracy):
+    """:func:`steps` compiled once for every body of a shape and every accuracy, and kept on
+    disk with the persistent cache (:func:`rockjax.compilation.persistent_jit`)."""
+    return _steps_program(p, np.float64(accuracy))
+
+
+def check_accuracy(accuracy, mode: str, joint: Joint) -> float:
+    """``accuracy`` checked, or the default for the ``mode`` and ``joint``."""
+    default = (DT_ACCURACY if joint.face else DT_ACCURACY_SUB)[mode]
+    if accuracy is None:
+        return default
+    if not (isinstance(accuracy, (int, float)) and np.isfinite(accuracy) and accuracy > 0):
+        raise ValueError(
+            f"accuracy (omega_max dt (1 + zeta), dimensionless) must be a positive float; got "
+            f"accuracy={accuracy!r}. Leave accuracy=None for the default ({default}); smaller "
+            "is finer."
+        )
+    return float(accuracy)

@@ -1,0 +1,132 @@
+"""What a DEM run returns: :class:`AssemblyResponse` (per-block series) and, for a single
+block, the :class:`rockjax.Response` every model returns."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import numpy as np
+from jaxtyping import Array, Bool, Float, Int
+
+from ..response import Response
+
+
+class AssemblyResponse(eqx.Module):
+    """A simulated history of an assembly, sampled at ``t``; the last axis of the per-block
+    series is the block (bottom to top; from -x to +x in a row).
+
+    Attributes:
+        t: Sample times [s].
+        theta: Rotation of each block [rad] (positive clockwise: the top toward +x).
+        theta_dot: Angular velocity of each block [rad/s].
+        x: Horizontal displacement of each centroid from its rest position [m].
+        y: Height of each centroid above the ground surface [m].
+        d: Horizontal displacement of each block's top face centre from its rest position
+            [m], ``x + (h/2) sin(theta)``.
+        overturned: True once the assembly collapsed (a block or a sub-stack past its unstable
+            point, or a block off its support); the state is frozen from then on.
+        status: 0 if the run is valid, else a code in ``rockjax.response.STATUS_MESSAGES``.
+        theta_max: Largest ``|theta|`` of each block over the run, between samples too [rad].
+        eta: Slenderness ``atan(b/h)`` of each block [rad].
+        d_max: Largest ``|d|`` of each block over the run, between samples too [m].
+        energy: Total mechanical energy [J] (kinetic + gravity + overburden + contact springs),
+            or None when not requested.
+        dt: The time step used [s].
+        work_wall: With a moving return wall (``wall_motion``) and ``save=("energy",)``: the
+            work done on the blocks by the wall since ``t = 0`` [J], so that
+            ``energy - work_wall`` is conserved without damping, slip or ground motion;
+            zeros for a fixed wall; else None.
+        normal_forces: With ``save=("forces",)``: the normal force of each interface [N]
+            (``time x interface``; in a stack interface 0 the ground joint, ``k`` the bed
+            joint between blocks ``k - 1`` and ``k``; in a row the order of
+            :attr:`rockjax.Assembly.interfaces`), the resultant over the face of springs and
+            dashpots, positive in compression, along the lower body's normal (the ground's:
+            vertical); else None.
+        shear_forces: With ``"forces"``: the shear force of each interface [N] (springs and
+            dashpots), along the lower body's tangent (the ground's: +x), on the upper block;
+            else None.
+        restraint_force: With ``"forces"`` and a restrained top: the top restraint's
+            horizontal force on the top block [N] (positive toward +x); else None.
+        wall_forces: With ``"forces"`` on return walls (``mode="one_sided"``): the normal
+            force of each block's back face on its wall [N] (``time x block``, positive in
+            compression; a moving wall's horizontal component); else None.
+
+    The forces are those of the step taken at each sample (the state at the sample, the
+    dashpots at the lagged half-step velocity, as ``extras["normal_forces"]`` of
+    a single block's :class:`rockjax.Response`); the centred dashpots that move the blocks differ from
+    them by ``dt/2`` times the dashpot matrix times the accelerations (nothing at rest or at
+    ``beta = 0``).
+    """
+
+    t: Float[Array, " time"]
+    theta: Float[Array, "time block"]
+    theta_dot: Float[Array, "time block"]
+    x: Float[Array, "time block"]
+    y: Float[Array, "time block"]
+    d: Float[Array, "time block"]
+    overturned: Bool[Array, ""]
+    status: Int[Array, ""]
+    theta_max: Float[Array, " block"]
+    eta: Float[Array, " block"]
+    d_max: Float[Array, " block"]
+    energy: Float[Array, " time"] | None
+    dt: Float[Array, ""]
+    work_wall: Float[Array, " time"] | None = None
+    normal_forces: Float[Array, "time interface"] | None = None
+    shear_forces: Float[Array, "time interface"] | None = None
+    restraint_force: Float[Array, " time"] | None = None
+    wall_forces: Float[Array, "time block"] | None = None
+
+
+# ----------------------------------------------------------------------------- parameters
+
+
+def block_response(r: AssemblyResponse, b) -> Response:
+    """The :class:`rockjax.Response` of a single block (``b`` its width [m]) from the run of
+    the assembly of one it is: the same arrays, block axis dropped; ``extras`` holds ``x``,
+    ``y`` (centroid [m]), ``d_max`` [m], ``dt`` [s] and, as requested, ``normal_forces``,
+    ``shear_forces`` (the base joint's, [N]), ``wall_forces`` and ``work_wall``."""
+
+    def block(x):
+        # the block axis dropped; on the host for a concrete run (an eager slice of a device
+        # array would compile once per record length)
+        if isinstance(x, jax.core.Tracer):
+            return x[..., 0]
+        return jax.device_put(np.asarray(x)[..., 0])
+
+    extras = {"x": block(r.x), "y": block(r.y), "d_max": block(r.d_max), "dt": r.dt}
+    for key in ("normal_forces", "shear_forces", "wall_forces"):
+        value = getattr(r, key)
+        if value is not None:
+            extras[key] = block(value)
+    if r.work_wall is not None:
+        extras["work_wall"] = r.work_wall
+    return Response(
+        t=r.t,
+        theta=block(r.theta),
+        theta_dot=block(r.theta_dot),
+        d=block(r.d),
+        overturned=r.overturned,
+        status=r.status,
+        theta_max=block(r.theta_max),
+        eta=block(r.eta),
+        b=b,
+        energy=r.energy,
+        extras=extras,
+    )
+
+
+def cut(r: AssemblyResponse, n: int) -> AssemblyResponse:
+    """A padded run's series cut to the true ``n`` samples, on the host (an eager slice of a
+    device array would compile once per length)."""
+    if r.t.shape[0] == n:
+        return r
+
+    def series(x):
+        return None if x is None else jax.device_put(np.asarray(x)[:n])
+
+    names = ("t", "theta", "theta_dot", "x", "y", "d", "energy", "work_wall")
+    names += ("normal_forces", "shear_forces", "restraint_force", "wall_forces")
+    return dataclasses.replace(r, **{k: series(getattr(r, k)) for k in names})

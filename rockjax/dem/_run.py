@@ -1,0 +1,299 @@
+"""The DEM's driver: the scan over the record samples (one output sample each) and, inside
+it, over the steps between two samples, with the status and collapse bookkeeping; and the
+choices of program layout that XLA:CPU needs (one computation per history, chunks of padded
+samples skipped).
+
+Scan layout: the outer scan's body is wrapped in ``jax.checkpoint``, so reverse mode stores
+one small carry per sample and recomputes the steps; the inner scan over the ``n_in`` steps
+carries the state's fields themselves (one copy of the step in the program). With rockjax's
+``xla_cpu_small_while_loop_byte_threshold`` setting (see ``rockjax/__init__.py``) XLA:CPU
+compiles the loop as a single kernel without per-iteration dispatch.
+
+Compile once per bucket of record lengths (:mod:`rockjax.compilation`): :func:`run` takes the
+true number of samples ``n`` as data when the series are padded beyond it; it then skips the
+chunks of :data:`SCAN_CHUNK` samples past ``n`` and freezes the state from there.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from ..compilation import bucket_length, persistent_jit
+from ..response import (
+    STATUS_BAD_INPUT,
+    STATUS_MESSAGES,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    STATUS_UNSTABLE,
+)
+from ._params import DemParams, DemState, omega_max
+from ._response import AssemblyResponse
+from ._step import collapsed, energy, step
+
+SCAN_CHUNK = 256
+"""Samples per chunk of the outer scan when a record is padded to its bucket (:func:`run`
+with ``n``): a chunk wholly past the true length is skipped, so a record padded from 2 000 to
+32 768 samples runs 120 empty chunks instead of 30 768 samples."""
+
+
+def padded_length(n: int) -> int:
+    """The length [samples] a concrete record of ``n`` samples is padded to by
+    :func:`rockjax.simulate_dem`: its bucket (:func:`rockjax.compilation.bucket_length`),
+    rounded up to whole chunks of :data:`SCAN_CHUNK` samples."""
+    return SCAN_CHUNK * math.ceil(bucket_length(n) / SCAN_CHUNK)
+
+
+def failure_message(code: int) -> str:
+    """The message of a failed run's status ``code`` (what ``throw`` raises)."""
+    return (
+        f"rockjax.simulate_dem: {STATUS_MESSAGES[code]}. "
+        "Pass throw=False to get a per-run status instead."
+    )
+
+
+@persistent_jit
+def run(
+    p: DemParams,
+    st0: DemState,
+    ag,
+    ag_v,
+    dt,
+    dt_out,
+    n_in: int,
+    save: tuple = (),
+    throw: bool = False,
+    top=None,
+    wall=None,
+    n=None,
+    one_history: bool = False,
+) -> AssemblyResponse:
+    """The DEM run from a prepared state: what :func:`rockjax.simulate_dem` calls once it has
+    checked its inputs (use it for set-ups it does not offer, e.g. a block dropped flat).
+
+    An outer scan over the record samples, ``n_in`` steps of ``dt`` [s] each (the base
+    accelerations ``ag``, ``ag_v`` [m/s^2] linear in between), assembled into an
+    :class:`AssemblyResponse` (per-block series, also for one block) all inside one jit.
+    Nothing is checked here: ``p`` from :func:`rockjax.dem.dem_params`, ``st0`` e.g. from
+    :func:`rockjax.dem.initial_state`, ``dt = dt_out / n_in``.
+
+    Args:
+        save: Extra outputs, ``"energy"`` and/or ``"forces"``.
+        throw: Fail loudly (``eqx.error_if``) on a failed status; else report it.
+        top: ``None``, or the top restraint's displacement [m] and velocity [m/s] relative to
+            the base at the samples, linear between them as ``ag``.
+        wall: ``None`` (fixed return walls, or none), or a moving wall's ``(u_top, v_top)``
+            [m, m/s] likewise.
+        n: The true number of samples (an integer array: data, not a shape), when ``ag`` and
+            the other series are padded beyond it (:func:`rockjax.compilation.pad_to`); None:
+            all. From sample ``n`` on the state, the running maxima, ``overturned`` and
+            ``status`` are frozen, and whole chunks of :data:`SCAN_CHUNK` padded samples are
+            skipped; the outputs hold the series up to the padded length (cut them to ``n``
+            samples). Every record whose length pads to one length shares one program.
+        one_history: One history outside any transform: the step's shared values are kept
+            as one XLA computation each (:func:`rockjax.dem.step`).
+    """
+
+    def nxt(a):
+        return jnp.concatenate([a[1:], a[-1:]])
+
+    ag_next, agv_next = nxt(ag), nxt(ag_v)
+    if top is None:
+        zeros = jnp.zeros_like(ag)
+        top_xs = (zeros, zeros, zeros, zeros)
+    else:
+        top_xs = (top[0], nxt(top[0]), top[1], nxt(top[1]))
+    moving = wall is not None
+    work = moving and "energy" in save
+    # the forces ride in the carry only when asked for (a static choice: no cost otherwise)
+    forces = "forces" in save
+    n_acc = 3 * p.n + (1 if work else 0)  # accelerations, then the wall's power, then forces
+    wall_xs = () if not moving else (wall[0], nxt(wall[0]), wall[1], nxt(wall[1]))
+    w_max = omega_max(p)
+    unstable = dt > 2.0 / w_max * (1.0 + 1e-9)
+    positive = jnp.concatenate([p.m, p.I_c, p.b, p.h, p.kn_line, p.hi - p.lo, p.tan_phi[None]])
+    bad_input = ~(
+        jnp.all(jnp.isfinite(positive))
+        & jnp.all(positive > 0)
+        & jnp.isfinite(p.beta)
+        & (p.beta >= 0)
+        & jnp.isfinite(p.gap)
+        & (p.gap >= 0)
+        & jnp.isfinite(p.top_load)
+        & jnp.all(jnp.isfinite(ag))
+        & jnp.all(jnp.isfinite(ag_v))
+        & jnp.all(jnp.stack([jnp.all(jnp.isfinite(a)) for a in top_xs]))
+    )
+    if p.one_sided:
+        bad_input = bad_input | ~(jnp.isfinite(p.wall_gap) & (p.wall_gap >= 0))
+    if moving:
+        bad_input = bad_input | ~jnp.all(jnp.stack([jnp.all(jnp.isfinite(a)) for a in wall]))
+
+    def outer(carry, xs):
+        st, overturned, status = carry[:3]
+        a0, a1, v0, v1, u0, u1, w0, w1 = xs[:8]
+        da, dv = (a1 - a0) / n_in, (v1 - v0) / n_in
+        du, dw = (u1 - u0) / n_in, (w1 - w0) / n_in
+        zero = jnp.zeros_like(a0)
+        if moving:
+            p0, p1, q0, q1 = xs[8:]
+            dp, dq = (p1 - p0) / n_in, (q1 - q0) / n_in
+
+        # one scan over the n_in substeps (one copy of the step in the program); the
+        # accelerations of the first substep, at the sample time, travel in the carry (with
+        # a moving wall, its power at the sample time and its work summed over the steps)
+        def inner(c, _):
+            s_, j, first = c[:3]
+            tm = None if top is None else (u0 + j * du, w0 + j * dw)
+            wm = (p0 + j * dp, q0 + j * dq) if moving else None
+            s_, acc, power, rec = step(
+                p,
+                s_,
+                a0 + j * da,
+                v0 + j * dv,
+                dt,
+                top_motion=tm,
+                wall=wm,
+                one_history=one_history,
+            )
+            # scalars, not a stacked vector: XLA:CPU would build a vector element by element,
+            # each element's fusion recomputing the step
+            flat = [v for row in acc for v in row]
+            if work:
+                flat.append(power)
+            if forces:
+                flat += [*rec["normal"], *rec["shear"]]
+                flat += [rec["restraint"]] if p.restrained else []
+                flat += rec["wall"] if p.one_sided else []
+            first = tuple(jnp.where(j == 0.0, v, f) for v, f in zip(flat, first))
+            if work:
+                return (s_, j + 1.0, first, c[3] + dt * power), None
+            return (s_, j + 1.0, first), None
+
+        n_forces = (2 * p.n + p.restrained + (p.n if p.one_sided else 0)) if forces else 0
+        first0 = tuple(zero for _ in range(n_acc + n_forces))
+        init = (st, zero, first0) + ((carry[3],) if work else ())
+        done, _ = jax.lax.scan(inner, init, length=n_in)
+        new, first = done[0], done[2]
+        vel = [
+            (
+                st.vx[k] + 0.5 * dt * first[3 * k],
+                st.vy[k] + 0.5 * dt * first[3 * k + 1],
+                st.w[k] + 0.5 * dt * first[3 * k + 2],
+            )
+            for k in range(p.n)
+        ]
+        out = {
+            "theta": jnp.stack(st.theta, axis=-1),
+            "theta_dot": jnp.stack([v[2] for v in vel], axis=-1),
+            "x": jnp.stack(st.x, axis=-1) - p.x0,
+            "y": jnp.stack(st.y, axis=-1),
+            "d": jnp.stack(
+                [st.x[k] - p.x0[k] + 0.5 * p.h[k] * st.s[k] for k in range(p.n)], axis=-1
+            ),
+        }
+        if "energy" in save:
+            out["energy"] = energy(p, st, vel, (p0, q0) if moving else None, one_history)
+        if work:
+            # as rockjax.simulate_dem: the steps' power x dt summed, half a step past the
+            # sample (the constant half step of the first sample is taken off at the end)
+            out["work_wall"] = carry[3] + 0.5 * dt * first[3 * p.n]
+        if forces:
+            # the forces of the sample's step (its state, the dashpots at the lagged
+            # half-step velocity), as rockjax.simulate_dem records its base normal forces
+            rec = first[n_acc:]
+            n = p.n
+            out["normal_forces"] = jnp.stack(rec[:n], axis=-1)
+            out["shear_forces"] = jnp.stack(rec[n : 2 * n], axis=-1)
+            if p.restrained:
+                out["restraint_force"] = rec[2 * n]
+            if p.one_sided:
+                out["wall_forces"] = jnp.stack(rec[2 * n + p.restrained :], axis=-1)
+        over = overturned | collapsed(p, new)
+        leaves = jax.tree_util.tree_leaves(new)
+        bad = ~jnp.all(jnp.stack([jnp.all(jnp.isfinite(v)) for v in leaves]))
+        status = jnp.where(
+            status != STATUS_OK,
+            status,
+            jnp.where(unstable, STATUS_UNSTABLE, jnp.where(bad, STATUS_NONFINITE, STATUS_OK)),
+        )
+        keep = overturned | (status != STATUS_OK)
+        new = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b), st, new)
+        if work:
+            return (new, over, status, jnp.where(keep, carry[3], done[3])), out
+        return (new, over, status), out
+
+    outer = jax.checkpoint(outer, prevent_cse=False)
+    status0 = jnp.where(bad_input, STATUS_BAD_INPUT, STATUS_OK)
+    carry0 = (st0, jnp.zeros((), bool), status0) + ((jnp.zeros(()),) if work else ())
+    xs = (ag, ag_next, ag_v, agv_next, *top_xs, *wall_xs)
+    if n is None:
+        (st, overturned, status, *_), out = jax.lax.scan(outer, carry0, xs)
+    else:
+        (st, overturned, status, *_), out = scan_to(outer, carry0, xs, n)
+    work_wall = None
+    if work:
+        work_wall = out["work_wall"] - out["work_wall"][0]
+    elif p.one_sided and "energy" in save:  # a fixed wall does no work
+        work_wall = jnp.zeros_like(out["energy"])
+    if throw:
+        for code in (STATUS_BAD_INPUT, STATUS_UNSTABLE, STATUS_NONFINITE):
+            msg = failure_message(code)
+            out["theta"] = eqx.error_if(out["theta"], status == code, msg)
+    return AssemblyResponse(
+        t=jnp.arange(ag.shape[0]) * dt_out,
+        theta=out["theta"],
+        theta_dot=out["theta_dot"],
+        x=out["x"],
+        y=out["y"],
+        d=out["d"],
+        d_max=jnp.stack(st.d_max),
+        overturned=overturned,
+        status=status,
+        theta_max=jnp.stack(st.theta_max),
+        eta=p.eta,
+        energy=out.get("energy"),
+        dt=jnp.asarray(dt, float),
+        work_wall=work_wall,
+        normal_forces=out.get("normal_forces"),
+        shear_forces=out.get("shear_forces"),
+        restraint_force=out.get("restraint_force"),
+        wall_forces=out.get("wall_forces"),
+    )
+
+
+def scan_to(body, carry0, xs, n):
+    """``jax.lax.scan(body, carry0, xs)`` over the first ``n`` (traced) samples of ``xs``: the
+    carry is frozen from sample ``n`` on (masked by the sample index), and the scan runs in
+    chunks of :data:`SCAN_CHUNK` samples, a chunk that starts at or past ``n`` skipped by a
+    ``lax.cond`` (its outputs zeros). A padded sample inside the last chunk costs one sample's
+    work; a skipped chunk almost nothing."""
+    n_pad = xs[0].shape[0]
+    k = math.gcd(n_pad, SCAN_CHUNK)
+    n = jnp.asarray(n)
+
+    shapes = jax.eval_shape(body, carry0, jax.tree.map(lambda a: a[0], xs))[1]
+
+    def zeros(shape=()):
+        return jax.tree.map(lambda s: jnp.zeros(shape + s.shape, s.dtype), shapes)
+
+    def sample(carry, x):
+        i, x = x
+        return jax.lax.cond(i < n, body, lambda c, _: (c, zeros()), carry, x)
+
+    xs_c = jax.tree.map(lambda a: a.reshape((n_pad // k, k) + a.shape[1:]), (jnp.arange(n_pad), xs))
+
+    def chunk(carry, xc):
+        def run(c):
+            return jax.lax.scan(sample, c, xc)
+
+        def skip(c):
+            return c, zeros((k,))
+
+        return jax.lax.cond(xc[0][0] < n, run, skip, carry)
+
+    carry, out = jax.lax.scan(chunk, carry0, xs_c)
+    return carry, jax.tree.map(lambda a: a.reshape((n_pad,) + a.shape[2:]), out)

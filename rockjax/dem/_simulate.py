@@ -1,0 +1,389 @@
+"""The public entry points of the DEM: :func:`simulate_dem` (a block, or an assembly of
+blocks), :func:`stable_dt`, and their checks of the user's inputs."""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._checks import check_choice, check_positive, check_samples, concrete
+from ..assembly import Assembly
+from ..block import Block
+from ..compilation import is_batched, is_traced, notice_once, pad_to
+from ..contact import Joint
+from ..motion import GroundMotion
+from ..response import STATUS_BAD_INPUT, STATUS_OK, Response
+from ..supports import resolve_supports
+from ._params import (
+    as_assembly,
+    check_accuracy,
+    dem_params,
+    steps_compiled,
+)
+from ._response import AssemblyResponse, block_response, cut
+from ._run import failure_message, padded_length, run
+from ._state import check_theta0, initial_state
+
+SAVE_OPTIONS = ("energy", "forces")
+
+DEFAULT_SAVE_DT = 0.002
+"""Output interval [s] for free rocking (no record)."""
+
+
+def simulate_dem(
+    block: Block | Assembly,
+    motion: GroundMotion | None = None,
+    *,
+    beta=0.0,
+    mode: str = "two_sided",
+    gap=0.0,
+    theta0=0.0,
+    duration: float | None = None,
+    dt: float | None = None,
+    accuracy: float | None = None,
+    joint: Joint = Joint(),
+    phi_deg=None,
+    save_dt: float | None = None,
+    save: tuple[str, ...] = (),
+    beta_max=None,
+    throw: bool = True,
+    wall_motion=None,
+    support_motion=None,
+    storey: int | None = None,
+) -> Response | AssemblyResponse:
+    """Simulate the DEM of a rigid block, or of an assembly of blocks, under a ground motion
+    and/or a free release.
+
+    One model for both: a block is the assembly of one (its base joint, and with
+    ``mode="one_sided"`` its back face on the return wall), so ``simulate_dem(block, ...)``
+    and ``simulate_dem(rj.Assembly.stack([block]), ...)`` give the same history to the bit.
+
+    Compiles once per bucket of record lengths (:mod:`rockjax.compilation`): called with
+    concrete inputs, the record is padded to :func:`padded_length` ``(n)`` samples (32 768 for
+    records up to that length) and its length passed as data, so a loop over records of
+    different lengths (or free-rocking durations) at one record step compiles once; a new
+    record step with a new number of steps a sample compiles again. Inside
+    ``jit``/``vmap``/``grad`` the caller's transform fixes the shapes.
+
+    In a building (an assembly with ``support_motion=bldg``), the wall of storey ``storey``
+    stands on floor ``storey - 1`` (0 the ground) and its top restraint is held by floor
+    ``storey``: the run is in the frame of the base floor (the ground acceleration is the base
+    floor's absolute acceleration) and the restraint moves by the storey's drift,
+    docs/assemblies.md "Supports in a building".
+
+    Args:
+        block: The block (geometry and material), or an :class:`rockjax.Assembly` of several
+            blocks (per-block ``theta``, ``x``, ``y`` in an :class:`AssemblyResponse`;
+            ``mode="one_sided"`` puts every block's back face on a return wall).
+        motion: Ground motion; ``None`` for free rocking (then ``duration`` is required).
+        beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1), alpha = 0.
+        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade with a return wall at -x).
+        gap: Facade gap between the back face and the return wall [m] (one-sided only).
+        theta0: Initial rotation [rad], released from rest on its pivot corner; ``|theta0| <
+            eta`` (of the whole stack about block 0's corner); a restrained two-block wall is
+            released in its hinge mechanism; ``theta0 >= 0`` one-sided.
+        duration: Length of the run [s]; default the record's. A longer duration appends zeros
+            (free vibration after the record); a shorter one truncates it.
+        dt: Time step [s]; default :func:`stable_dt` (chosen for accuracy, see ``accuracy``).
+            The step used is the largest divisor of the output step not above ``dt``. A step
+            above the stability limit is refused.
+        accuracy: Accuracy of the default step, ``omega_max dt (1 + zeta)`` [-] (ignored when
+            ``dt`` is given); default ``DT_ACCURACY[mode]`` (``DT_ACCURACY_SUB`` with integer
+            ``n_sub``), which puts the first-impact ``e`` within 1e-3 of its converged value
+            (docs/verification.md). Smaller is finer.
+        joint: The contact joint of every interface, :class:`rockjax.Joint`: by default the
+            contact law integrated in closed form over each face (the ``n_sub -> infinity``
+            limit of the sub-contacts; docs/theory.md, "Integrated face contact"), the closed
+            dashpot and contact onsets located inside the step (responses smooth in
+            ``beta``); ``rj.Joint(n_sub=2)`` is the paper's two corner contacts.
+        phi_deg: Friction angle [deg]; default 50 (parapets) or 30 (facades), as in the paper.
+        save_dt: Output interval for free rocking [s] (default 0.002); with a record, its ``dt``.
+        save: Extra outputs: ``"energy"`` (total energy [J]), ``"forces"`` (the joints'
+            normal and shear forces [N]; an assembly's top restraint's and return walls' too).
+        beta_max: Largest ``beta`` to size the default step for, when ``beta`` is traced.
+        throw: Raise (also inside ``jit``) if the run fails; if False, report ``status``.
+        wall_motion: A return wall that moves relative to the base (``mode="one_sided"`` only;
+            None: fixed). The wall is the back face (a stack's: the line of its back faces)
+            rocked rigidly to ``theta_w = u_top / H`` about block 0's toe (its heel for
+            ``theta_w < 0``), ``H`` the height: its contact line is ``x = -b/2 - gap +
+            theta_w y - (b/2) theta_w^2`` to second order (``y`` above the base;
+            docs/pushover.md, "Moving return walls"), so a facade riding on it at ``theta =
+            theta_w`` lies flush, as in ``simulate_housner``. Anything
+            :func:`rockjax.supports.resolve_supports` accepts: a pair ``(u_top, v_top)`` of
+            arrays [m], [m/s] with one value per record sample (traceable), a
+            ``ShearBuilding``, the wall's absolute acceleration as a ``GroundMotion``, or
+            ``(height, GroundMotion)`` pairs. Linear between samples; past the record's end
+            (a longer ``duration``) the wall holds its last position.
+        support_motion: An assembly only: the :class:`rockjax.ShearBuilding` whose floors
+            carry the wall (with ``storey``), or a pair ``(u, v)`` of arrays: the top
+            restraint's displacement [m] and velocity [m/s] relative to the base.
+        storey: The storey of ``support_motion`` the wall spans (1-based; its base on floor
+            ``storey - 1``, its top restraint following floor ``storey``); default 1.
+
+    Returns:
+        For a block, a :class:`rockjax.Response` sampled at the record samples (or every
+        ``save_dt``); ``extras`` holds ``x``, ``y`` (centroid [m]), ``d_max`` [m], ``dt`` [s]
+        and the requested outputs; for a facade with ``"energy"`` saved also ``work_wall``
+        [J], the work done on the block by the return wall since ``t = 0`` (zero for a fixed
+        wall), so that ``energy - work_wall`` is conserved without damping, slip or ground
+        motion. For an assembly, an :class:`AssemblyResponse`.
+
+    Raises:
+        ValueError: on invalid input, with the value, its unit and the fix.
+    """
+    assembly = as_assembly(block)
+    single = isinstance(block, Block)
+    if single and (support_motion is not None or storey is not None):
+        raise ValueError(
+            "support_motion= and storey= place a wall of several blocks (an rj.Assembly) in a "
+            "building; a single block on a floor runs on that floor's motion: "
+            "rj.simulate_dem(block, bldg.floor_motions(gm)[i], ...), or wrap it as "
+            "rj.Assembly.stack([block])."
+        )
+    save = check_save(save)
+    p = dem_params(block, beta, mode=mode, gap=gap, joint=joint, phi_deg=phi_deg)
+    check_theta0(theta0, assembly, mode)
+    if wall_motion is not None and mode != "one_sided":
+        raise ValueError(
+            f"wall_motion (a moving return wall) needs mode='one_sided' (a facade against its "
+            f"return wall); got mode={mode!r}. Pass mode='one_sided', or drop wall_motion."
+        )
+    ag, ag_v, dt_out = prepare_motion(motion, duration, save_dt)
+    supports = resolve_supports(
+        assembly, motion, ag, dt_out, wall_motion=wall_motion,
+        support_motion=support_motion, storey=storey,
+    )  # fmt: skip
+    ag, top, wall = supports.ag, supports.top, supports.wall
+    accuracy = check_accuracy(accuracy, mode, joint)
+    n_in = steps_per_sample(p, block, beta, beta_max, mode, joint, dt, dt_out, accuracy)
+    step = np.asarray(dt_out / n_in)
+    st0 = initial_state(block, p, theta0)
+    dt_out = np.asarray(dt_out)
+    if is_traced(p, st0, ag, ag_v, top, wall, step):
+        # inside the caller's jit/vmap/grad: their transform fixes the shapes
+        one = not is_batched(p, st0, ag, ag_v, top, wall, step)
+        resp = run(p, st0, ag, ag_v, step, dt_out, n_in, save, throw, top, wall, one_history=one)
+    else:
+        resp = run_padded(p, st0, ag, ag_v, step, dt_out, n_in, save, throw, top, wall, mode)
+    return block_response(resp, jnp.asarray(block.b, float)) if single else resp
+
+
+def simulate_assembly(assembly: Assembly, motion: GroundMotion | None = None, **kw):
+    """:func:`simulate_dem` of an :class:`rockjax.Assembly` (the same model and keywords),
+    returning its :class:`AssemblyResponse`; kept for the name."""
+    if not isinstance(assembly, Assembly):
+        raise ValueError(
+            f"assembly must be a rockjax.Assembly; got a {type(assembly).__name__}. Run a "
+            "single block with rj.simulate_dem(block, ...), or wrap it: "
+            "rj.Assembly.stack([block])."
+        )
+    return simulate_dem(assembly, motion, **kw)
+
+
+def run_padded(p, st0, ag, ag_v, step, dt_out, n_in, save, throw, top, wall, mode):
+    """An eager run, padded to its bucket (its last sample repeated, which is what the last
+    sample's steps interpolate toward anyway) with its length passed as data; the run freezes
+    from there, and the outputs are cut on the host. A failed run raises here, after the run:
+    a compiled program with error callbacks (``eqx.error_if``) cannot go into the persistent
+    compilation cache."""
+    n_out = ag.shape[0]
+    n_pad = padded_length(n_out)
+    notice_once(
+        (
+            "dem",
+            n_pad,
+            n_in,
+            float(dt_out),
+            mode,
+            p.n_sub,
+            p.links,
+            save,
+            top is None,
+            wall is None,
+        ),
+        f"rockjax: compiling the DEM solver for records of <= {n_pad} samples, {n_in} steps a "
+        "sample (once per session)...",
+    )
+
+    def padded(pair):
+        return None if pair is None else tuple(pad_to(a, n_pad) for a in pair)
+
+    resp = run(
+        p,
+        st0,
+        pad_to(ag, n_pad),
+        pad_to(ag_v, n_pad),
+        step,
+        dt_out,
+        n_in,
+        save,
+        False,
+        padded(top),
+        padded(wall),
+        n=np.asarray(n_out, dtype=np.int32),
+        one_history=True,
+    )
+    if throw:
+        raise_on_failure(int(resp.status))
+    return cut(resp, n_out)
+
+
+def raise_on_failure(status: int) -> None:
+    """The errors ``throw`` asks for, raised after an eager run with the messages
+    ``eqx.error_if`` gives under a transform."""
+    if status == STATUS_BAD_INPUT:
+        raise ValueError(failure_message(status))
+    if status != STATUS_OK:
+        raise RuntimeError(failure_message(status))
+
+
+def check_save(save) -> tuple:
+    if isinstance(save, str):
+        raise ValueError(
+            f"save must be a tuple of output names, e.g. save=({save!r},); got save={save!r}."
+        )
+    for key in save:
+        check_choice("save entry", key, SAVE_OPTIONS)
+    return tuple(save)
+
+
+def steps_per_sample(p, body, beta, beta_max, mode, joint, dt, dt_out, accuracy) -> int:
+    """The number of steps per record sample: the default step (or ``dt``, checked against
+    the stability limit) rounded down to divide the sample step ``dt_out`` [s]."""
+    limit, dt_default = concrete_steps(p, body, beta_max, joint, mode, dt, accuracy)
+    if dt is None:
+        return max(1, math.ceil(dt_out / dt_default - 1e-9))
+    check_positive("dt", dt, "s", "Or leave dt=None (chosen for accuracy).", scalar=True)
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be a positive time step in s; got dt={dt}. Or leave dt=None.")
+    if limit is not None and dt > limit * (1 + 1e-9):
+        kind = "block" if isinstance(body, Block) else "assembly"
+        raise ValueError(
+            f"dt={dt:.4g} s exceeds the explicit stability limit {limit:.4g} s of this {kind} "
+            f"at beta={fmt(beta)} s. Use dt <= {limit:.4g} s or leave dt=None (default "
+            f"{dt_default:.4g} s, chosen for accuracy)."
+        )
+    return max(1, math.ceil(dt_out / float(dt) - 1e-9))
+
+
+def fmt(x) -> str:
+    v = concrete(x)
+    return "(traced)" if v is None else f"{float(v):.4g}"
+
+
+def concrete_steps(p, body, beta_max, joint, mode, dt, accuracy):
+    """``(stability limit, default step)`` [s] as floats, or ``(None, None)`` when they cannot
+    be known outside the trace."""
+    if beta_max is not None:
+        try:  # rebuilt from the body: p may hold tracers when only beta is traced
+            with jax.ensure_compile_time_eval():
+                p_max = dem_params(body, beta_max, mode=mode, joint=joint, phi_deg=45.0)
+                return tuple(map(float, steps_compiled(p_max, accuracy)))
+        except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
+            raise ValueError(
+                "beta_max cannot size the time step when the block itself is traced; pass "
+                "dt=rj.stable_dt(block, beta_max) computed outside the transform."
+            ) from None
+    try:
+        return tuple(map(float, steps_compiled(p, accuracy)))
+    except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
+        if dt is not None:
+            return None, None  # checked inside the trace (status / error_if)
+        raise ValueError(
+            "simulate_dem was called with traced inputs (inside jit/vmap/grad), so the time step "
+            "cannot be chosen automatically. Pass dt=rj.stable_dt(block, beta_max) computed "
+            "outside the transform, or beta_max=<largest beta> [s]."
+        ) from None
+
+
+def stable_dt(
+    block: Block | Assembly,
+    beta=0.0,
+    *,
+    mode: str = "two_sided",
+    gap=0.0,
+    joint: Joint = Joint(),
+    accuracy: float | None = None,
+) -> float:
+    """The default DEM time step [s]: stable, and chosen for accuracy (before rounding to
+    divide the record step).
+
+    ``accuracy / (omega_max (1 + zeta))`` with ``zeta = beta omega_max / 2``, at most
+    ``DT_SAFETY`` times the stability limit ``2 / omega_max``, ``omega_max`` the highest
+    frequency of the block (or the whole assembly) on all its springs closed (see
+    :func:`rockjax.dem.default_step`, docs/theory.md "Time stepping"). It decreases with
+    ``beta``, so the step for the largest ``beta`` of a sweep serves them all. Use it to fix
+    the step outside a transform and pass it as ``simulate_dem(..., dt=...)`` inside
+    ``jit``/``vmap``/``grad``.
+
+    Args:
+        block: The block, or an :class:`rockjax.Assembly`.
+        beta: Stiffness-proportional damping coefficient [s], Eq. (1).
+        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
+        gap: Facade gap [m] (does not change the step).
+        joint: The contact joint (:class:`rockjax.Joint`; default the integrated face law).
+        accuracy: ``omega_max dt (1 + zeta)`` [-]; default ``DT_ACCURACY[mode]`` (1.0 for
+            parapets, 0.35 for facades; 0.5 for parapets with integer ``n_sub``: first-impact
+            ``e`` within 1e-3 of its converged value, facade rebound peaks within 2 %;
+            docs/verification.md). Smaller is finer; values above ``2 DT_SAFETY / (1 + zeta)``
+            give the stability-based step.
+    """
+    p = dem_params(block, beta, mode=mode, gap=gap, joint=joint)
+    return float(steps_compiled(p, check_accuracy(accuracy, mode, joint))[1])
+
+
+def stable_dt_assembly(
+    assembly: Assembly,
+    beta=0.0,
+    *,
+    joint: Joint = Joint(),
+    accuracy: float | None = None,
+    mode: str = "two_sided",
+) -> float:
+    """:func:`stable_dt` of an :class:`rockjax.Assembly`; kept for the name."""
+    return stable_dt(assembly, beta, mode=mode, joint=joint, accuracy=accuracy)
+
+
+def check_motion_type(motion) -> None:
+    if motion is not None and not isinstance(motion, GroundMotion):
+        raise ValueError(
+            f"motion must be a rockjax.GroundMotion (or None for free rocking); got "
+            f"{type(motion).__name__}. Wrap an acceleration array as "
+            "rj.GroundMotion(ag=<m/s^2>, dt=<s>) or rj.GroundMotion.from_g(<g>, dt)."
+        )
+
+
+def prepare_motion(motion, duration, save_dt):
+    """``(ag, ag_v, dt_out)``: a checked record as arrays [m/s^2], [m/s^2], [s], zero-padded or
+    cut to ``duration`` [s]; free motion (``motion=None``) is zeros every ``save_dt`` [s]
+    (default :data:`DEFAULT_SAVE_DT`). NumPy arrays for a concrete record, jnp when traced."""
+    if motion is None:
+        if duration is None:
+            raise ValueError(
+                "Free rocking (motion=None) needs duration=<seconds>, e.g. duration=5.0."
+            )
+        if save_dt is not None:
+            check_positive(
+                "save_dt", save_dt, "s", f"e.g. save_dt={DEFAULT_SAVE_DT} (the default)."
+            )
+        dt_out = DEFAULT_SAVE_DT if save_dt is None else float(save_dt)
+        check_samples(duration, dt_out, dt_name="save_dt")
+        motion = GroundMotion.zeros(duration, dt_out)
+    check_motion_type(motion)
+    motion.check_finite()
+    dt_out = motion.dt
+    # NumPy for concrete records (no eager JAX dispatch); jnp when the record is traced (vmap)
+    xp = np if concrete(motion.ag) is not None else jnp
+    ag = xp.asarray(motion.ag, float)
+    ag_v = xp.zeros_like(ag) if motion.ag_v is None else xp.asarray(motion.ag_v, float)
+    if duration is not None:
+        n = check_samples(duration, dt_out, dt_name="the record's dt")
+        if n < 2:
+            raise ValueError(f"duration={duration} s is shorter than two samples of {dt_out} s.")
+        pad = max(0, n - ag.shape[0])
+        ag = xp.pad(ag, (0, pad))[:n]
+        ag_v = xp.pad(ag_v, (0, pad))[:n]
+    return ag, ag_v, dt_out
