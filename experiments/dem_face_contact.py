@@ -8,7 +8,7 @@ convergence in the time step.
 2. ``dt``: the same quantities of the integrated law at the default step dt_d times
    2, 1, 1/2, 1/4, 1/16 (parapets h/b 4-24 at 0, 0.5, 1.5 beta_DeJong; facades at 0, 0.5, 1
    beta_Hcrit); reference dt_d/16.
-3. ``shear``: the three shear-history rules of the face law (``dem.FACE_SHEAR_RELEASE``:
+3. ``shear``: the three shear-history rules of the face law (``rj.Joint(shear_release=...)``:
    release the share of a pressure-shaped or a uniform stress that opens, or none) against
    n_sub = 64 at beta = 0, where the sub-contacts lose energy by releasing their shear springs.
 
@@ -23,11 +23,10 @@ import csv
 import pathlib
 import time
 
-import jax
 import numpy as np
 
 import rockjax as rj
-from rockjax import dem, metrics
+from rockjax import metrics
 
 PARAPETS = ((0.25, 1.0), (0.2, 1.5), (0.25, 3.0), (0.15, 2.4), (0.1, 2.4))  # h/b 4 ... 24
 FACADES = ((0.11, 2.4), (0.2, 1.5), (0.3, 2.4))
@@ -49,10 +48,10 @@ def _beta(kind, blk, frac):
     return frac * float(rj.beta_dejong(blk) if kind == "parapet" else rj.beta_hcrit(blk))
 
 
-def value(kind, blk, beta, n_sub, f=2.0, duration=None):
+def value(kind, blk, beta, n_sub, f=2.0, duration=None, release="uniform"):
     """e_exp,1 (parapet) or the first rebound peak / eta (facade) at dt_d(n_sub) / f."""
     mode = "two_sided" if kind == "parapet" else "one_sided"
-    joint = rj.Joint(n_sub=n_sub)
+    joint = rj.Joint(n_sub=n_sub, shear_release=release)
     dt = rj.stable_dt(blk, beta, mode=mode, joint=joint) / f
     r = rj.simulate_dem(
         blk,
@@ -134,11 +133,7 @@ def study_shear():
         beta = _beta(kind, blk, frac)
         row = dict(kind=kind, b=b, h=h, beta_frac=frac, n64=value(kind, blk, beta, 64))
         for release in ("pressure", "uniform", "none"):
-            dem.FACE_SHEAR_RELEASE = release
-            jax.clear_caches()
-            row[f"exact_{release}"] = value(kind, blk, beta, "exact")
-        dem.FACE_SHEAR_RELEASE = "pressure"
-        jax.clear_caches()
+            row[f"exact_{release}"] = value(kind, blk, beta, "exact", release=release)
         rows.append(row)
         print("  " + " ".join(f"{k}={v}" for k, v in row.items()), flush=True)
     return rows

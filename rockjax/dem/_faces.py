@@ -336,15 +336,10 @@ def interface(
     if p.face:
         kn_c = kn
         (f_s,) = hist
-        # the resultant shear spring keeps the share of its closed length that stays closed
-        # (rockjax.dem's "uniform" release); the previous penetration is delta - dt delta_dot
-        ca_old, cb_old = closed_interval(lo, hi, d_lo - dt * r_lo, d_hi - dt * r_hi)
-        ca, cb = closed_interval(lo, hi, d_lo, d_hi)
-        ka, kb = jnp.maximum(ca, ca_old), jnp.minimum(cb, cb_old)
-        kb = jnp.maximum(kb, ka)
-        whole, kept = cb_old - ca_old, kb - ka
-        safe = jnp.where(whole > 0.0, whole, 1.0)
-        f_s = f_s * jnp.where(whole > 0.0, jnp.clip(kept / safe, 0.0, 1.0), 0.0)
+        # the resultant shear spring keeps the share of the stress over the closed part that
+        # stays closed (Joint.shear_release); the previous penetration is delta - dt delta_dot
+        if p.shear_release != "none":
+            f_s = f_s * kept_share(lo, hi, d_lo, d_hi, dt * r_lo, dt * r_hi, p.shear_release)
         # the shear dashpot acts only while the face sticks (rockjax.contact.coulomb)
         f_s, stick = coulomb(f_s - ks * v0 * dt, p.tan_phi * fn_el)
         # the shear dashpot's stiffness: state-dependent now, and read by the forces and the
@@ -411,6 +406,31 @@ def interface(
     c_ll = add(blocks[0][1], blocks[1][1])
     c_ul = add(blocks[0][2], blocks[1][2])
     return f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn_out, power, ft
+
+
+def kept_share(lo, hi, d_lo, d_hi, dd_lo, dd_hi, release: str):
+    """The share of a face's shear spring kept as its closed part moves from the previous
+    step's (penetration ``d - dd`` at the ends ``lo``, ``hi``) to this one's (``d``): the
+    part closed then and now, weighted uniformly (``release="uniform"``) or by the previous
+    penetration (``"pressure"``); 0 if nothing was closed."""
+    o_lo, o_hi = d_lo - dd_lo, d_hi - dd_hi
+    ca_old, cb_old = closed_interval(lo, hi, o_lo, o_hi)
+    ca, cb = closed_interval(lo, hi, d_lo, d_hi)
+    ka, kb = jnp.maximum(ca, ca_old), jnp.minimum(cb, cb_old)
+    kb = jnp.maximum(kb, ka)
+    if release == "pressure":
+
+        def old_pen(x):
+            return o_lo + (x - lo) / (hi - lo) * (o_hi - o_lo)
+
+        def integral(a, b):
+            return 0.5 * (b - a) * (old_pen(a) + old_pen(b))
+
+        whole, kept = integral(ca_old, cb_old), integral(ka, kb)
+    else:
+        whole, kept = cb_old - ca_old, kb - ka
+    safe = jnp.where(whole > 0.0, whole, 1.0)
+    return jnp.where(whole > 0.0, jnp.clip(kept / safe, 0.0, 1.0), 0.0)
 
 
 def face_energy(p: DemParams, k: int, span, ends, hist):

@@ -86,6 +86,7 @@ class DemParams(eqx.Module):
     n_sub: int | str = eqx.field(static=True)
     dashpot: str = eqx.field(static=True)
     onset: str = eqx.field(static=True)
+    shear_release: str = eqx.field(static=True)
     restrained: bool = eqx.field(static=True)
     one_sided: bool = eqx.field(static=True)
     links: tuple = eqx.field(static=True, default=())
@@ -226,6 +227,7 @@ def dem_params(
         n_sub=joint.n_sub,
         dashpot=joint.dashpot,
         onset=joint.onset,
+        shear_release=joint.shear_release,
         restrained=assembly.top == "restrained",
         one_sided=mode == "one_sided",
         links=links,
