@@ -130,3 +130,19 @@ def cut(r: AssemblyResponse, n: int) -> AssemblyResponse:
     names = ("t", "theta", "theta_dot", "x", "y", "d", "energy", "work_wall")
     names += ("normal_forces", "shear_forces", "restraint_force", "wall_forces")
     return dataclasses.replace(r, **{k: series(getattr(r, k)) for k in names})
+
+
+def cut_block(r: Response, n: int) -> Response:
+    """:func:`cut` of a single block's :class:`rockjax.Response`."""
+    if r.t.shape[0] == n:
+        return r
+
+    def series(x):
+        return None if x is None else jax.device_put(np.asarray(x)[:n])
+
+    extras = dict(r.extras)
+    for key in ("x", "y", "normal_forces", "shear_forces", "wall_forces", "work_wall"):
+        if key in extras:
+            extras[key] = series(extras[key])
+    names = ("t", "theta", "theta_dot", "d", "energy")
+    return dataclasses.replace(r, extras=extras, **{k: series(getattr(r, k)) for k in names})

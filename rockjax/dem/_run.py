@@ -29,9 +29,10 @@ from ..response import (
     STATUS_NONFINITE,
     STATUS_OK,
     STATUS_UNSTABLE,
+    Response,
 )
 from ._params import DemParams, DemState, omega_max
-from ._response import AssemblyResponse
+from ._response import AssemblyResponse, block_response
 from ._step import collapsed, energy, step
 
 SCAN_CHUNK = 256
@@ -142,11 +143,10 @@ def run(
             p0, p1, q0, q1 = xs[8:]
             dp, dq = (p1 - p0) / n_in, (q1 - q0) / n_in
 
-        # one scan over the n_in substeps (one copy of the step in the program); the
-        # accelerations of the first substep, at the sample time, travel in the carry (with
-        # a moving wall, its power at the sample time and its work summed over the steps)
-        def inner(c, _):
-            s_, j, first = c[:3]
+        def substep(s_, j):
+            """The ``j``-th step of the sample: the new state, the values the sample records
+            of it (as scalars, not a stacked vector: XLA:CPU would build a vector element by
+            element, each element's fusion recomputing the step) and a moving wall's power."""
             tm = None if top is None else (u0 + j * du, w0 + j * dw)
             wm = (p0 + j * dp, q0 + j * dq) if moving else None
             s_, acc, power, rec = step(
@@ -159,8 +159,6 @@ def run(
                 wall=wm,
                 one_history=one_history,
             )
-            # scalars, not a stacked vector: XLA:CPU would build a vector element by element,
-            # each element's fusion recomputing the step
             flat = [v for row in acc for v in row]
             if work:
                 flat.append(power)
@@ -168,16 +166,40 @@ def run(
                 flat += [*rec["normal"], *rec["shear"]]
                 flat += [rec["restraint"]] if p.restrained else []
                 flat += rec["wall"] if p.one_sided else []
-            first = tuple(jnp.where(j == 0.0, v, f) for v, f in zip(flat, first))
-            if work:
-                return (s_, j + 1.0, first, c[3] + dt * power), None
-            return (s_, j + 1.0, first), None
+            return s_, flat, power
 
-        n_forces = (2 * p.n + p.restrained + (p.n if p.one_sided else 0)) if forces else 0
-        first0 = tuple(zero for _ in range(n_acc + n_forces))
-        init = (st, zero, first0) + ((carry[3],) if work else ())
-        done, _ = jax.lax.scan(inner, init, length=n_in)
-        new, first = done[0], done[2]
+        if p.n == 1:
+            # a block's step is small: the sample's first step is a copy of its own, whose
+            # accelerations are read directly, and the scan runs the other n_in - 1
+            new, first, power = substep(st, zero)
+            init = (new, zero + 1.0) + ((carry[3] + dt * power,) if work else ())
+
+            def inner(c, _):
+                s_, j = c[:2]
+                s_, _, power = substep(s_, j)
+                return (s_, j + 1.0) + ((c[2] + dt * power,) if work else ()), None
+
+            if n_in > 1:
+                init, _ = jax.lax.scan(inner, init, length=n_in - 1)
+            new = init[0]
+            done = (new, None, None) + init[2:]
+        else:
+            # one scan over the n_in steps (one copy of the step in the program); the
+            # accelerations of the first step, at the sample time, travel in the carry (with
+            # a moving wall, its power at the sample time and its work summed over the steps)
+            def inner(c, _):
+                s_, j, first = c[:3]
+                s_, flat, power = substep(s_, j)
+                first = tuple(jnp.where(j == 0.0, v, f) for v, f in zip(flat, first))
+                if work:
+                    return (s_, j + 1.0, first, c[3] + dt * power), None
+                return (s_, j + 1.0, first), None
+
+            n_forces = (2 * p.n + p.restrained + (p.n if p.one_sided else 0)) if forces else 0
+            first0 = tuple(zero for _ in range(n_acc + n_forces))
+            init = (st, zero, first0) + ((carry[3],) if work else ())
+            done, _ = jax.lax.scan(inner, init, length=n_in)
+            new, first = done[0], done[2]
         vel = [
             (
                 st.vx[k] + 0.5 * dt * first[3 * k],
@@ -263,6 +285,28 @@ def run(
         restraint_force=out.get("restraint_force"),
         wall_forces=out.get("wall_forces"),
     )
+
+
+@persistent_jit
+def run_block(
+    p: DemParams,
+    st0: DemState,
+    ag,
+    ag_v,
+    dt,
+    dt_out,
+    n_in: int,
+    save: tuple = (),
+    throw: bool = False,
+    top=None,
+    wall=None,
+    n=None,
+    one_history: bool = False,
+) -> Response:
+    """:func:`run` of a single block (an assembly of one), returned as its
+    :class:`rockjax.Response` from the same program."""
+    r = run(p, st0, ag, ag_v, dt, dt_out, n_in, save, throw, top, wall, n, one_history)
+    return block_response(r, p.b[0])
 
 
 def scan_to(body, carry0, xs, n):

@@ -23,8 +23,8 @@ from ._params import (
     dem_params,
     steps_compiled,
 )
-from ._response import AssemblyResponse, block_response, cut
-from ._run import failure_message, padded_length, run
+from ._response import AssemblyResponse, cut, cut_block
+from ._run import failure_message, padded_length, run, run_block
 from ._state import check_theta0, initial_state
 
 SAVE_OPTIONS = ("energy", "forces")
@@ -162,13 +162,16 @@ def simulate_dem(
     step = np.asarray(dt_out / n_in)
     st0 = initial_state(block, p, theta0)
     dt_out = np.asarray(dt_out)
+    program = run_block if single else run
     if is_traced(p, st0, ag, ag_v, top, wall, step):
         # inside the caller's jit/vmap/grad: their transform fixes the shapes
         one = not is_batched(p, st0, ag, ag_v, top, wall, step)
-        resp = run(p, st0, ag, ag_v, step, dt_out, n_in, save, throw, top, wall, one_history=one)
-    else:
-        resp = run_padded(p, st0, ag, ag_v, step, dt_out, n_in, save, throw, top, wall, mode)
-    return block_response(resp, jnp.asarray(block.b, float)) if single else resp
+        args = (save, throw, top, wall)
+        return program(p, st0, ag, ag_v, step, dt_out, n_in, *args, one_history=one)
+    resp = run_padded(program, p, st0, ag, ag_v, step, dt_out, n_in, save, top, wall, mode)
+    if throw:
+        raise_on_failure(int(resp.status))
+    return (cut_block if single else cut)(resp, ag.shape[0])
 
 
 def simulate_assembly(assembly: Assembly, motion: GroundMotion | None = None, **kw):
@@ -183,10 +186,11 @@ def simulate_assembly(assembly: Assembly, motion: GroundMotion | None = None, **
     return simulate_dem(assembly, motion, **kw)
 
 
-def run_padded(p, st0, ag, ag_v, step, dt_out, n_in, save, throw, top, wall, mode):
-    """An eager run, padded to its bucket (its last sample repeated, which is what the last
-    sample's steps interpolate toward anyway) with its length passed as data; the run freezes
-    from there, and the outputs are cut on the host. A failed run raises here, after the run:
+def run_padded(program, p, st0, ag, ag_v, step, dt_out, n_in, save, top, wall, mode):
+    """An eager run of ``program`` (:func:`rockjax.dem.run` or its single block's), padded to
+    its bucket (its last sample repeated, which is what the last sample's steps interpolate
+    toward anyway) with its length passed as data; the run freezes from there (cut its outputs
+    to the record's length on the host). It does not raise: the caller checks its status, as
     a compiled program with error callbacks (``eqx.error_if``) cannot go into the persistent
     compilation cache."""
     n_out = ag.shape[0]
@@ -211,7 +215,7 @@ def run_padded(p, st0, ag, ag_v, step, dt_out, n_in, save, throw, top, wall, mod
     def padded(pair):
         return None if pair is None else tuple(pad_to(a, n_pad) for a in pair)
 
-    resp = run(
+    return program(
         p,
         st0,
         pad_to(ag, n_pad),
@@ -226,9 +230,6 @@ def run_padded(p, st0, ag, ag_v, step, dt_out, n_in, save, throw, top, wall, mod
         n=np.asarray(n_out, dtype=np.int32),
         one_history=True,
     )
-    if throw:
-        raise_on_failure(int(resp.status))
-    return cut(resp, n_out)
 
 
 def raise_on_failure(status: int) -> None:

@@ -76,6 +76,14 @@ def initial_state(body: Block | Assembly, p: DemParams, theta0=0.0) -> DemState:
     settles uniformly under the weight above it. The return walls (one-sided ``p``) just
     touch the back faces at ``gap = 0``."""
     assembly = Assembly.stack([body]) if isinstance(body, Block) else body
+    hinge = bool(p.restrained and concrete(theta0) != 0.0)
+    return settled(assembly, p, theta0, hinge)
+
+
+# Compiled: one call instead of ~30 eager operations (~0.5 ms a call).
+@jax.jit(static_argnames=("hinge",))
+def settled(assembly: Assembly, p: DemParams, theta0, hinge: bool) -> DemState:
+    """:func:`initial_state` of an assembly (``hinge``: released in its hinge mechanism)."""
     n_fs = 1 if p.face else p.n_sub
     zero = jnp.zeros(())
     n = p.n
@@ -100,7 +108,7 @@ def initial_state(body: Block | Assembly, p: DemParams, theta0=0.0) -> DemState:
         )
     weight = sum(b.m for b in assembly.blocks) * G + assembly.top_load
     pose = rest_pose(carrying(assembly.blocks[0], weight), theta0, p.n_sub)
-    if p.restrained and concrete(theta0) != 0.0:
+    if hinge:
         return hinge_pose(assembly, p, pose, theta0)
     theta0 = jnp.asarray(theta0, float)
     x_0, y_0, c, s = pose
