@@ -42,7 +42,8 @@ the impact map, uplift and rest rule, ``_state.py`` the carried state, ``_pass.p
 of a step, ``_loop.py`` the while loop over the record (its docstring: the design),
 ``_wall.py`` moving return walls, ``_solve.py`` the compiled program and its in-graph checks,
 ``_simulate.py`` ``simulate_housner`` and its boundary checks (its docstring: the step-size
-rule and the length buckets), ``_batch.py`` ``batch_runs``, ``_lax.py`` bare-lax helpers.
+rule and the length buckets), ``_diffrax.py`` the same model through ``diffrax.diffeqsolve``
+and ``diffrax.Event`` (``solver=``), ``_batch.py`` ``batch_runs``, ``_lax.py`` bare-lax helpers.
 
 Accuracy (docs/verification.md, "Housner"): on 20 s broadband records (a Kanai-Tajimi record
 and FEMA P695 components, two- and one-sided, up to overturning) the default step gives the

@@ -40,6 +40,7 @@ from ..motion import GroundMotion
 from ..relations import e_housner, e_isr
 from ..response import STATUS_BAD_INPUT, STATUS_OK, Response
 from ..three_branch import ThreeBranchFit, ThreeBranchLaw
+from ._diffrax import default_controller, solve_events
 from ._params import P_DT_LIMIT, P_DT_TARGET, law_frequency
 from ._solve import STATE_MESSAGES, fault_message, solve
 from ._wall import pad_wall, wall_series
@@ -76,6 +77,8 @@ def simulate_housner(
     throw: bool = True,
     law: ThreeBranchLaw | ThreeBranchFit | None = None,
     wall_motion: Any = None,
+    solver: diffrax.AbstractSolver | None = None,
+    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
 ) -> Response:
     r"""Simulate Housner rocking with impacts (two-sided parapet or one-sided facade).
 
@@ -113,7 +116,9 @@ def simulate_housner(
             threshold is put to rest by the rest rule and does not count.
         adjoint: ``None`` or ``diffrax.RecursiveCheckpointAdjoint()`` (reverse mode, ``grad``;
             its ``checkpoints`` is honoured), or ``diffrax.ForwardMode()`` for
-            ``jvp``/``jacfwd``.
+            ``jvp``/``jacfwd``. With ``solver``, it picks the loop over the record the same
+            way, and each ``diffeqsolve`` gets ``RecursiveCheckpointAdjoint()`` or
+            ``ForwardMode()`` to match.
         throw: Raise (also inside ``jit``) on an invalid traced input, a non-finite state or an
             unresolved step; if False report it in ``Response.status`` (for batches: a lane
             with an invalid input, e.g. ``e > 1`` or ``|theta0| >= eta``, gets
@@ -135,6 +140,18 @@ def simulate_housner(
             or its base where the wall has receded behind it (``theta >= max(theta_w, 0)``);
             impacts restitute the velocity relative to the stop; at rest the block rides on
             it. The block rocks on its toe only: see ``extras["t_heel"]``. Needs ``motion``.
+        solver: ``None`` (default): the fixed-step loop (Tsit5 steps of ``p dt_step <= 0.1``,
+            crossings from each step's cubic fit). A diffrax solver, e.g. ``diffrax.Tsit5()``
+            or ``diffrax.Dopri8()``: each record interval is integrated by
+            ``diffrax.diffeqsolve`` with an adaptive ``stepsize_controller``, impacts,
+            overturning and peaks located as ``diffrax.Event``s by an optimistix Newton root
+            finder; the vector field, impact map, uplift and rest rule are the default loop's.
+            Slower (docs/benchmarks.md, "Housner through diffrax"); for checking the default
+            at a chosen tolerance, or a higher order. ``max_impacts_per_step`` then bounds the
+            impacts per record interval; ``extras["dt"]`` is NaN. Not with ``wall_motion``.
+        stepsize_controller: With ``solver``: an adaptive diffrax controller, default
+            ``diffrax.PIDController(rtol=1e-8, atol=1e-10)`` (tolerances on ``theta`` [rad]
+            and ``theta_dot`` [rad/s]).
 
     Returns:
         A :class:`rockjax.Response` at the record samples (or every ``dt``). ``energy`` is
@@ -170,6 +187,7 @@ def simulate_housner(
         wall_motion,
     )
     loop_kind, checkpoints = _loop_kind(adjoint)
+    controller = _check_solver(solver, stepsize_controller, motion, dt, wall_motion)
     dt_out, n_out, ag, ag_v, dt_max = _record_arrays(motion, duration, dt)
     n_sub = _substeps(block, law, dt_out, dt_max)
 
@@ -211,9 +229,7 @@ def simulate_housner(
     block = jax.tree.map(lambda x: jnp.asarray(x, dtype=float), block)
     e = jnp.asarray(e, dtype=float)
     theta_dot0 = _first_step_velocity(theta_dot0, theta0, e, dt_out / n_sub)
-    # An eager call checks in Python, after the run: a compiled program with error callbacks
-    # (eqx.error_if) cannot go into the persistent compilation cache.
-    resp, fault = solve(
+    inputs = (
         block,
         pad_to(ag, n_pad),
         None if ag_v is None else pad_to(ag_v, n_pad),
@@ -223,14 +239,21 @@ def simulate_housner(
         jnp.asarray(dt_out, dtype=float),
         jnp.asarray(n_out, dtype=jnp.int32),
         None if law is None else jax.tree.map(lambda x: jnp.asarray(x, dtype=float), law),
-        None if wall is None else pad_wall(wall, n_pad, dt_out),
-        n_sub=n_sub,
+    )
+    options = dict(
         one_sided=one_sided,
         max_impacts=max_impacts_per_step,
         loop_kind=loop_kind,
         checkpoints=checkpoints,
         throw=throw and traced,
     )
+    # An eager call checks in Python, after the run: a compiled program with error callbacks
+    # (eqx.error_if) cannot go into the persistent compilation cache.
+    if solver is None:
+        wall = None if wall is None else pad_wall(wall, n_pad, dt_out)
+        resp, fault = solve(*inputs, wall, n_sub=n_sub, **options)
+    else:  # the diffrax path (_diffrax.py)
+        resp, fault = solve_events(*inputs, solver=solver, controller=controller, **options)
     if throw and not traced:
         _raise_on_failure(int(resp.status), int(fault), one_sided)
     return resp if n_pad == n_out else _cut(resp, n_out)
@@ -367,6 +390,44 @@ def _cut(resp: Response, n_out: int) -> Response:
         resp,
         (cut(resp.t), cut(resp.theta), cut(resp.theta_dot), cut(resp.d), cut(resp.energy), extras),
     )
+
+
+def _check_solver(solver, controller, motion, dt, wall_motion):
+    """The diffrax path's arguments: ``solver`` None or a ``diffrax.AbstractSolver``, and its
+    step-size controller an adaptive one (default :func:`default_controller`). Returns the
+    controller (None without a solver)."""
+    if solver is None:
+        if controller is not None:
+            raise ValueError(
+                "stepsize_controller is used with a diffrax solver only; pass solver=, e.g. "
+                "solver=diffrax.Tsit5(), or drop stepsize_controller (the default loop's step "
+                "follows dt)."
+            )
+        return None
+    if not isinstance(solver, diffrax.AbstractSolver):
+        raise ValueError(
+            f"solver must be None (the default loop) or a diffrax solver such as "
+            f"diffrax.Tsit5() or diffrax.Dopri8(); got a {type(solver).__name__}."
+        )
+    if controller is None:
+        controller = default_controller()
+    if not isinstance(controller, diffrax.AbstractAdaptiveStepSizeController):
+        raise ValueError(
+            f"stepsize_controller must be an adaptive diffrax controller, e.g. "
+            f"diffrax.PIDController(rtol=1e-8, atol=1e-10) (tolerances in rad, rad/s); got a "
+            f"{type(controller).__name__}. For fixed steps use solver=None and dt."
+        )
+    if wall_motion is not None:
+        raise ValueError(
+            "wall_motion is solved by the default loop only; pass solver=None with wall_motion."
+        )
+    if motion is not None and dt is not None:
+        raise ValueError(
+            f"with a diffrax solver the step is the controller's: dt [s] is the output step of "
+            f"free rocking only; got dt={dt} with a record. Drop dt, or tighten "
+            "stepsize_controller's rtol and atol."
+        )
+    return controller
 
 
 def _raise_on_failure(status: int, fault: int, one_sided: bool) -> None:

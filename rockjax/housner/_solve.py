@@ -72,11 +72,10 @@ def solve(
     bucket, ``n_out`` samples of it run (data), ``n_sub`` solver steps per sample interval.
     Returns ``(Response, fault)``, ``fault`` the first failed input check (0: none)."""
     dt_step = dt_out / n_sub
-    checked, bad, fault = check_inputs(block, ag, ag_v, e, theta0, theta_dot0, one_sided, throw)
-    eta, p, e, theta0, theta_dot0, ag, ag_v = checked
-    params, record, y0 = setup(
-        p, eta, e, theta0, theta_dot0, ag, ag_v, dt_out, law, wall, n_sub, one_sided
+    (params, record, y0), bad, fault, p = prepare(
+        block, ag, ag_v, e, theta0, theta_dot0, dt_out, law, wall, n_sub, one_sided, throw
     )
+    eta = params.eta
     ys, final = run_record(
         y0,
         record,
@@ -93,6 +92,15 @@ def solve(
         block, ys, final, bad, too_coarse, dt_step, params, record, wall, n_out, throw=throw
     )
     return resp, fault
+
+
+def prepare(block, ag, ag_v, e, theta0, theta_dot0, dt_out, law, wall, n_sub, one_sided, throw):
+    """:func:`check_inputs`, then :func:`setup` on the checked inputs: ``((params, record,
+    y0), bad, fault, p)``, ``p`` [rad/s] the block's frequency (its stand-in where ``bad``)."""
+    checked, bad, fault = check_inputs(block, ag, ag_v, e, theta0, theta_dot0, one_sided, throw)
+    eta, p, e, theta0, theta_dot0, ag, ag_v = checked
+    setting = setup(p, eta, e, theta0, theta_dot0, ag, ag_v, dt_out, law, wall, n_sub, one_sided)
+    return setting, bad, fault, p
 
 
 def check_inputs(block, ag, ag_v, e, theta0, theta_dot0, one_sided: bool, throw: bool):
