@@ -7,7 +7,7 @@ minute on 2 cores; ``--dem`` adds the DEM loops, about half a minute more), or
 1. A loop over ten FEMA P695 far-field components of ten different lengths (1 999 to 9 992
    samples, steps 0.005-0.02 s), each ``rj.simulate_housner(block, record)`` in turn as a
    user would: the number of XLA compilations of the solver (counted from ``jax.log_compiles``:
-   programs named ``_simulate``, and all programs), the first call and the other nine.
+   programs named ``solve``, and all programs), the first call and the other nine.
    With ``--dem``, the same with ``rj.simulate_dem(block, record)``: first the eight far-field
    components at dt = 0.01 s (eight lengths, 1 999 to 9 992 samples; one bucket and one
    number of substeps a sample, so one compiled ``run_prepared``), then the ten above (one

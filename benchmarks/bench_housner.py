@@ -1,7 +1,8 @@
 """Benchmark ``rockjax.simulate_housner``: compile time, one record, and batched throughput.
 
 Run: ``python benchmarks/bench_housner.py [--batches 64 256 1024] [--devices N]
-[--max-impacts K] [--chunk C] [--no-grad]`` (about a minute with the defaults on 2 cores).
+[--max-impacts K] [--chunk C] [--no-grad] [--no-diffrax]`` (about a minute with the defaults on
+2 cores).
 Measured figures, before and after the Housner rest rule of docs/theory.md: docs/verification.md,
 "Housner".
 
@@ -20,6 +21,10 @@ passes only until every record of the batch has reached its end, so K is a cap, 
 ``--chunk C`` batches with ``lax.map(batch_size=C)`` over vmapped chunks instead of one vmap.
 Compile times are those of ``jit(...).lower(...).compile()`` plus one run; a batch's "first
 call" is trace, compile and one run.
+
+"Through diffrax": the single record again with ``solver=diffrax.Tsit5()`` and
+``diffrax.Dopri8()`` (``simulate_housner``'s diffrax path, default ``PIDController(rtol=1e-8,
+atol=1e-10)``): compile, run, and its ``theta_max`` against the default loop's.
 
 The script prints wall-clock times (median of ``--repeat`` runs) and the process CPU time.
 """
@@ -47,6 +52,7 @@ def _parse():
         "--chunk", type=int, default=0, help="batch through lax.map(batch_size=CHUNK) of vmap"
     )
     ap.add_argument("--no-grad", action="store_true", help="skip the grad timing")
+    ap.add_argument("--no-diffrax", action="store_true", help="skip the diffrax path's timing")
     return ap.parse_args()
 
 
@@ -123,6 +129,9 @@ def main() -> None:
         f"{int(n_imp)} impacts"
     )
 
+    if not ARGS.no_diffrax:
+        through_diffrax(block, ag1, dt, float(theta_max))
+
     def energy_at_end(scale):
         return rj.simulate_housner(block, rj.GroundMotion(ag=scale * ag1, dt=dt)).energy[-1]
 
@@ -168,6 +177,31 @@ def main() -> None:
             f"status != 0: {np.count_nonzero(status)}"
         )
     print(f"load average at end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+
+
+def through_diffrax(block, ag, dt: float, theta_max_default: float) -> None:
+    """The single record through ``simulate_housner(..., solver=...)``: compile and run times,
+    and the peak against the default loop's ``theta_max_default`` [rad]."""
+    import diffrax
+
+    eta = float(block.eta)
+    for name, solver in (("Tsit5", diffrax.Tsit5()), ("Dopri8", diffrax.Dopri8())):
+
+        def one(ag, solver=solver):
+            r = rj.simulate_housner(block, rj.GroundMotion(ag=ag, dt=dt), solver=solver)
+            return r.theta_max, r.overturned, r.extras["n_impacts"][-1]
+
+        single = jax.jit(one)
+        w = time.perf_counter()
+        theta_max, over, n_imp = jax.block_until_ready(single.lower(ag).compile()(ag))
+        compile_s = time.perf_counter() - w
+        wall, cpu = _time(single, ag, repeat=ARGS.repeat)
+        print(
+            f"through diffrax, {name}: compile {compile_s:.2f} s; run {wall * 1e3:.1f} ms (cpu "
+            f"{cpu * 1e3:.1f} ms); theta_max/eta {float(theta_max) / eta:.4f} (default loop "
+            f"{theta_max_default / eta:.4f}, relative gap "
+            f"{abs(float(theta_max) / theta_max_default - 1):.1e}), {int(n_imp)} impacts"
+        )
 
 
 if __name__ == "__main__":

@@ -166,7 +166,7 @@ def test_a_second_process_loads_the_solver_from_the_cache(tmp_path):
 
     assert cache_hits(4.0) == 0
     # the program is kept traced (exported) and its compiled form is in JAX's cache
-    assert len(list((tmp_path / "cache" / compilation.EXPORT_SUBDIR).glob("_simulate-*"))) == 1
+    assert len(list((tmp_path / "cache" / compilation.EXPORT_SUBDIR).glob("solve-*"))) == 1
     assert any(path.name.startswith("jit_call") for path in (tmp_path / "cache").iterdir())
     assert cache_hits(6.0) >= 1
 
