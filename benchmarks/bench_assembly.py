@@ -31,7 +31,6 @@ import numpy as np  # noqa: E402
 from _timing import load, machine, timed  # noqa: E402
 
 from rockjax.assembly import Assembly  # noqa: E402
-from rockjax.dem import simulate_assembly, stable_dt_assembly  # noqa: E402
 
 BLOCK = dict(b=0.23, h=1.5)
 RECORD_DT = 0.01
@@ -52,7 +51,7 @@ def main(argv=None) -> None:
     beta = 1e-3
     print(f"machine: {machine()}; load {load()}; jax {jax.__version__}, {jax.devices()[0]}")
     two = Assembly.stack([rj.Block(**BLOCK)] * 2, top="restrained", overburden=5e3)
-    dt = stable_dt_assembly(two, beta)
+    dt = rj.stable_dt_assembly(two, beta)
     n_in = int(np.ceil(RECORD_DT / dt - 1e-9))
     dt = RECORD_DT / n_in
     print(f"dt = {dt:.3e} s ({n_in} steps per record sample), beta = {beta} s, face law\n")
@@ -82,7 +81,7 @@ def main(argv=None) -> None:
         wall = Assembly.stack([rj.Block(**BLOCK)] * n, top="restrained", overburden=5e3)
 
         def one(wall=wall):
-            return simulate_assembly(wall, rec, beta=beta, dt=dt).theta
+            return rj.simulate_assembly(wall, rec, beta=beta, dt=dt).theta
 
         t0 = time.perf_counter()
         jax.block_until_ready(one())
@@ -96,7 +95,7 @@ def main(argv=None) -> None:
         def many(wall=wall, recs=recs):
             return jax.vmap(
                 lambda ag: (
-                    simulate_assembly(
+                    rj.simulate_assembly(
                         wall, rj.GroundMotion(ag=ag, dt=RECORD_DT), beta=beta, dt=dt
                     ).theta
                 )

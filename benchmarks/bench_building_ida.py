@@ -47,7 +47,8 @@ import numpy as np
 from _timing import load, machine
 
 import rockjax as rj
-from rockjax.building import ShearBuilding, wall_top_motion
+from rockjax.building import ShearBuilding
+from rockjax.supports import wall_top_motion
 
 TARGET_RATIO = 1.20  # the building may add at most 20 % to the warm IDA time
 

@@ -29,7 +29,8 @@ import numpy as np
 from _timing import load, machine
 
 import rockjax as rj
-from rockjax.building import ShearBuilding, wall_top_motion
+from rockjax.building import ShearBuilding
+from rockjax.supports import wall_top_motion
 
 
 def _records(dt: float, count: int, n: int) -> np.ndarray:

@@ -69,8 +69,9 @@ import jax.numpy as jnp
 import numpy as np
 
 import rockjax as rj
-from rockjax.building import ShearBuilding, wall_top_motion
+from rockjax.building import ShearBuilding
 from rockjax.constants import G
+from rockjax.supports import wall_top_motion
 
 GEOMETRIES = {  # label: (h, b) [m]
     "h1.50": (1.50, 0.170),

@@ -53,7 +53,6 @@ from .assembly import limit_analysis as limit_analysis  # noqa: E402
 from .block import Block as Block  # noqa: E402
 from .building import ShearBuilding as ShearBuilding  # noqa: E402
 from .building import floor_spectra as floor_spectra  # noqa: E402
-from .building import wall_top_motion as wall_top_motion  # noqa: E402
 from .calibration import Calibration as Calibration  # noqa: E402
 from .calibration import fit_beta as fit_beta  # noqa: E402
 from .calibration import fit_e as fit_e  # noqa: E402
@@ -87,6 +86,7 @@ from .relations import omega_hcrit as omega_hcrit  # noqa: E402
 from .response import Response as Response  # noqa: E402
 from .spectra import response_spectrum as response_spectrum  # noqa: E402
 from .spectra import rotd_spectrum as rotd_spectrum  # noqa: E402
+from .supports import wall_top_motion as wall_top_motion  # noqa: E402
 from .three_branch import ThreeBranchFit as ThreeBranchFit  # noqa: E402
 from .three_branch import ThreeBranchLaw as ThreeBranchLaw  # noqa: E402
 from .three_branch import fit_three_branch as fit_three_branch  # noqa: E402

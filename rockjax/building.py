@@ -49,7 +49,7 @@ from ._checks import (
     concrete,
     warn_implausible,
 )
-from ._types import ScalarLike, TimeSeries
+from ._types import ScalarLike
 from .constants import G
 from .motion import PLAUSIBLE_LIMIT_G, GroundMotion
 from .spectra import DEFAULT_DAMPING, Spectrum, response_spectrum
@@ -80,9 +80,10 @@ MAX_PERIOD = 3.0
 """Fundamental period [s] run without a warning however few the storeys: a base-isolated
 building of one or two storeys reaches 2-3 s."""
 
-_MM_FIX = (
+MM_FIX = (
     "rockjax works in metres: did you give millimetres? Divide by 1000 (e.g. {}=3.0 for 3000 mm)."
 )
+"""The fix of a length given in millimetres (``MM_FIX.format(<argument name>)``)."""
 
 
 def _series(name: str, value, unit: str, hint: str):
@@ -169,7 +170,7 @@ class ShearBuilding(eqx.Module):
             concrete(storey_heights),
             MAX_STOREY_HEIGHT,
             "m",
-            _MM_FIX.format("storey_heights"),
+            MM_FIX.format("storey_heights"),
         )
         n = {a.shape[0] for a in (self.masses, self.stiffnesses, self.storey_heights)}
         if len(n) != 1:
@@ -235,7 +236,7 @@ class ShearBuilding(eqx.Module):
             concrete(storey_height),
             MAX_STOREY_HEIGHT,
             "m",
-            _MM_FIX.format("storey_height"),
+            MM_FIX.format("storey_height"),
         )
         t_max = max(MAX_PERIOD, MAX_PERIOD_PER_STOREY * n)
         if (t1 := concrete(period)) is not None and t1 > t_max:
@@ -430,163 +431,6 @@ def floor_spectra(
 
 
 # ------------------------------------------------------------------------------- return walls
-
-
-def wall_top_motion(
-    wall_motion: ShearBuilding | GroundMotion | Sequence[tuple[float, GroundMotion]],
-    motion: GroundMotion,
-    height: ScalarLike,
-) -> tuple[TimeSeries, TimeSeries]:
-    """Displacement and velocity of a return wall at ``height`` relative to the base.
-
-    The contract of the moving return walls (docs/building.md): the wall's contact line with
-    the facade is straight, ``u_w(y, t) = u_top(t) y / h``, and this function gives ``u_top``
-    (and its rate) at the facade height ``h = height``, positive toward +x (toward the
-    facade, pushing it outward).
-
-    Args:
-        wall_motion: One of
-            - a :class:`ShearBuilding`: its floor displacements relative to the ground under
-              ``motion``, linear in height between the ground (0) and the floors; above the
-              roof, the roof's;
-            - a :class:`rockjax.GroundMotion` (same ``dt`` and length as ``motion``): the
-              wall's absolute acceleration at ``height`` [m/s^2];
-            - a sequence of ``(height_i [m], GroundMotion_i)`` pairs: absolute accelerations at
-              those heights; the relative motion is linear in height between 0 at the base
-              and those heights, and constant above the highest.
-        motion: The ground motion at the facade's base.
-        height: Height above the base [m] at which the wall's motion is wanted (the facade
-            height).
-
-    Returns:
-        ``(u, v)``: displacement [m] and velocity [m/s] relative to the base, shape
-        ``(time,)`` of ``motion.ag``, at the samples ``k motion.dt``. Accelerations are
-        integrated exactly for their linear interpolant, from rest.
-
-    Raises:
-        ValueError: on a negative height, records of another step or length than
-            ``motion``, or a ``wall_motion`` of another kind.
-    """
-    if not isinstance(motion, GroundMotion):
-        raise ValueError(f"motion must be a rockjax.GroundMotion; got {type(motion).__name__}.")
-    check_scalar("height", height, "m", "Give the facade height, e.g. height=3.0.")
-    if (c := concrete(height)) is not None and not (np.isfinite(c) and c >= 0):
-        raise ValueError(
-            f"height must be a finite height >= 0 in m above the base; got height={height}."
-        )
-    check_below("height", concrete(height), MAX_HEIGHT, "m", _MM_FIX.format("height"))
-    motion.check_finite()
-    if isinstance(wall_motion, ShearBuilding):
-        return _wall_in_building(
-            wall_motion,
-            jnp.asarray(motion.ag, dtype=jnp.float64),
-            motion.dt,
-            jnp.asarray(height, dtype=jnp.float64).reshape(()),
-        )
-    # Concrete records are integrated in NumPy: eager JAX would compile every operation anew
-    # for each record length (the simulators call this once per record).
-    ag = _values(motion.ag)
-    if isinstance(wall_motion, GroundMotion):
-        _check_same_axis("wall_motion", wall_motion, motion)
-        u, v = _integrate_relative(_values(wall_motion.ag) - ag, motion.dt)
-        return jnp.asarray(u), jnp.asarray(v)
-    pairs = _check_pairs(wall_motion, motion)
-    rel = [_integrate_relative(_values(g.ag) - ag, motion.dt) for _, g in pairs]
-    w = _height_weights([zi for zi, _ in pairs], height)
-    u = sum(wi * r[0] for wi, r in zip(w, rel, strict=True))
-    v = sum(wi * r[1] for wi, r in zip(w, rel, strict=True))
-    return jnp.asarray(u), jnp.asarray(v)
-
-
-@eqx.filter_jit
-def _wall_in_building(building: ShearBuilding, ag, dt: float, height):
-    """Floor displacements and velocities relative to the ground, interpolated at ``height``."""
-    acc, u, v = _response(building, ag, dt)
-    del acc
-    nodes = jnp.concatenate([jnp.zeros(1), jnp.cumsum(building.storey_heights)])
-    w = jax.vmap(lambda f: jnp.interp(height, nodes, f))(jnp.eye(nodes.shape[0]))[1:]
-    return w @ u, w @ v
-
-
-def _check_same_axis(label: str, record: GroundMotion, motion: GroundMotion) -> None:
-    if not math.isclose(record.dt, motion.dt, rel_tol=1e-9) or record.n != motion.n:
-        raise ValueError(
-            f"{label} must share the ground motion's step and length: got dt={record.dt} s and "
-            f"{record.n} samples against dt={motion.dt} s and {motion.n} samples. Resample or "
-            "trim the wall record to the ground record's time axis."
-        )
-    record.check_finite()
-
-
-def _check_pairs(wall_motion, motion: GroundMotion) -> list:
-    fix = (
-        "wall_motion must be a rockjax.ShearBuilding, a rockjax.GroundMotion (the wall's "
-        "absolute acceleration) or a sequence of (height [m], GroundMotion) pairs, e.g. "
-        "[(3.0, floor1), (6.0, floor2)]"
-    )
-    if isinstance(wall_motion, str | bytes) or not isinstance(wall_motion, Sequence):
-        raise ValueError(f"{fix}; got {type(wall_motion).__name__}.")
-    pairs = list(wall_motion)
-    if not pairs or not all(
-        isinstance(p, Sequence) and len(p) == 2 and isinstance(p[1], GroundMotion) for p in pairs
-    ):
-        raise ValueError(f"{fix}; got {wall_motion!r:.200}.")
-    heights = []
-    for i, (zi, record) in enumerate(pairs):
-        check_scalar(f"wall_motion[{i}] height", zi, "m", "e.g. (3.0, floor1).")
-        _check_same_axis(f"wall_motion[{i}]", record, motion)
-        heights.append(concrete(zi))
-        check_below(
-            f"wall_motion[{i}] height", heights[-1], MAX_HEIGHT, "m", _MM_FIX.format("height")
-        )
-    if all(z is not None for z in heights):
-        z = np.array([float(v) for v in heights])
-        if not np.all(np.isfinite(z)) or np.any(z <= 0) or np.any(np.diff(z) <= 0):
-            raise ValueError(
-                f"the heights of wall_motion must be positive and increasing, in m above the "
-                f"base; got {z.tolist()}. Sort the (height, GroundMotion) pairs from the "
-                "lowest up; the base itself (height 0) moves with the ground and is implied."
-            )
-    return pairs
-
-
-def _xp(*arrays):
-    """NumPy when every array is concrete NumPy, else jax.numpy."""
-    return np if all(isinstance(a, np.ndarray) for a in arrays) else jnp
-
-
-def _values(x):
-    """A concrete series as a float64 NumPy array; a traced one as a float64 JAX array."""
-    c = concrete(x)
-    return jnp.asarray(x, dtype=jnp.float64) if c is None else c
-
-
-def _height_weights(z, height) -> list:
-    """Weights ``w_i`` with ``sum_i w_i f_i = f(height)`` for ``f`` linear between 0 at the
-    base and the values ``f_i`` at the increasing heights ``z_i`` [m], and ``f`` at the
-    highest above it. Python floats for concrete heights, JAX scalars for traced ones."""
-    zc = [concrete(zi) for zi in z]
-    hc = concrete(height)
-    if hc is not None and all(zi is not None for zi in zc):
-        nodes = np.concatenate([[0.0], [float(zi) for zi in zc]])
-        return [float(np.interp(float(hc), nodes, row)) for row in np.eye(nodes.size)[1:]]
-    nodes = jnp.concatenate(
-        [jnp.zeros(1), jnp.stack([jnp.asarray(zi, dtype=jnp.float64).reshape(()) for zi in z])]
-    )
-    h = jnp.asarray(height, dtype=jnp.float64).reshape(())
-    return list(jax.vmap(lambda f: jnp.interp(h, nodes, f))(jnp.eye(nodes.shape[0]))[1:])
-
-
-def _integrate_relative(a, dt: float):
-    """Displacement and velocity from rest of the acceleration ``a`` [m/s^2], linear between
-    its samples: ``v_{k+1} = v_k + dt (a_k + a_{k+1}) / 2``,
-    ``u_{k+1} = u_k + dt v_k + dt^2 (2 a_k + a_{k+1}) / 6`` (exact for that interpolant)."""
-    xp = _xp(a)
-    dv = 0.5 * dt * (a[:-1] + a[1:])
-    v = xp.concatenate([xp.zeros(1), xp.cumsum(dv)])
-    du = dt * v[:-1] + dt * dt * (2.0 * a[:-1] + a[1:]) / 6.0
-    u = xp.concatenate([xp.zeros(1), xp.cumsum(du)])
-    return u, v
 
 
 # ------------------------------------------------------------------------------- kernel

@@ -75,7 +75,7 @@ from ._lazy import lazy_module
 from ._types import ScalarLike
 from .assembly import ASSEMBLY_GAP_UNUSED, Assembly
 from .block import Block
-from .building import ShearBuilding, wall_top_motion
+from .building import ShearBuilding
 from .compilation import persistent_jit
 from .constants import G
 from .contact import Joint
@@ -85,7 +85,7 @@ from .motion import GroundMotion
 from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
-from .supports import check_storey, check_walls_in_building, storey_supports
+from .supports import check_storey, check_walls_in_building, storey_supports, wall_top_motion
 from .three_branch import ThreeBranchFit, ThreeBranchLaw
 
 xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)

@@ -18,7 +18,8 @@ import pytest
 from scipy import integrate, linalg
 
 import rockjax as rj
-from rockjax.building import ShearBuilding, floor_spectra, wall_top_motion
+from rockjax.building import ShearBuilding, floor_spectra
+from rockjax.supports import wall_top_motion
 
 EIGEN_RTOL = 1e-12  # two eigensolvers on a well-conditioned 5x5 pencil: round-off only
 EXACT_RTOL = 1e-12  # a closed-form integration of a linear acceleration: float64 round-off

@@ -490,7 +490,8 @@ def test_dem_in_a_building_compiles_once_per_bucket():
     # the record padded to the DEM's bucket, so records of other lengths in that bucket
     # compile nothing (neither the building nor the DEM); reference for the values: the wall
     # history from the unpadded record, as array pairs.
-    from rockjax.building import ShearBuilding, wall_top_motion
+    from rockjax.building import ShearBuilding
+    from rockjax.supports import wall_top_motion
 
     facade = rj.Block(b=0.2, h=1.5)
     bldg = ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.2, damping=0.05)
@@ -517,7 +518,8 @@ def test_housner_in_a_building_compiles_once_per_bucket():
     # The analytical facade with the building's walls: the building is solved on the record
     # padded to its bucket, so records of other lengths in that bucket compile nothing;
     # reference for the values: the wall history from the unpadded record, as array pairs.
-    from rockjax.building import ShearBuilding, wall_top_motion
+    from rockjax.building import ShearBuilding
+    from rockjax.supports import wall_top_motion
 
     facade = rj.Block(b=0.2, h=1.5)
     bldg = ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.2, damping=0.05)

@@ -24,8 +24,9 @@ import pytest
 from scipy.optimize import brentq
 
 import rockjax as rj
-from rockjax.building import ShearBuilding, wall_top_motion
+from rockjax.building import ShearBuilding
 from rockjax.constants import G
+from rockjax.supports import wall_top_motion
 from rockjax.three_branch import fit_three_branch
 
 FACADE = dict(b=0.2, h=1.5, E=1e12)  # stiff: the contact's compliance is ~1e-7 m

@@ -134,7 +134,7 @@ def simulate_housner(
             building; docs/three_branch.md, "Moving return walls"). A ``(u_top, v_top)`` pair of
             arrays [m], [m/s] at the record samples (the wall's displacement and velocity at
             the block's height ``h``, relative to the base, positive toward the facade), or
-            anything ``rockjax.building.wall_top_motion`` takes (a ``ShearBuilding``, a
+            anything ``rockjax.wall_top_motion`` takes (a ``ShearBuilding``, a
             ``GroundMotion`` of the wall's absolute acceleration, or ``(height, GroundMotion)``
             pairs). The wall rotates by ``theta_w = u_top / h``; the block's stop is the wall,
             or its base where the wall has receded behind it (``theta >= max(theta_w, 0)``);

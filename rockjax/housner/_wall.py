@@ -10,11 +10,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import check_series_pair, concrete
+from .._checks import concrete
 from ..block import Block
-from ..compilation import bucket_length, is_traced
 from ..motion import GroundMotion
-from ..walls import check_wall_rotation
+from ..supports import wall_history
 from ._lax import clip, safe, where
 from ._params import REST_HOP, Params
 from ._record import Record
@@ -101,36 +100,7 @@ def heel_time(ys: Series, wall, record: Record, params: Params, n_out):
 def wall_series(wall_motion, motion: GroundMotion, block: Block, n_out: int):
     """``(theta_w, theta_w')`` [rad, rad/s] at the run's ``n_out`` samples from ``wall_motion``
     (see ``simulate_housner``); beyond the record the wall stays where it ended."""
-    if (
-        isinstance(wall_motion, tuple | list)
-        and len(wall_motion) == 2
-        and all(_is_series(w) for w in wall_motion)
-    ):
-        u, v = wall_motion
-        check_series_pair(
-            "wall_motion",
-            ("u_top [m]", "v_top [m/s]"),
-            (u, v),
-            motion.n,
-            "Give the wall's displacement and velocity at t = k * motion.dt.",
-        )
-    else:
-        from ..building import ShearBuilding, wall_top_motion  # imported only when used
-
-        ag = concrete(motion.ag)
-        if isinstance(wall_motion, ShearBuilding) and ag is not None and not is_traced(wall_motion):
-            # the building's solve compiles per record length: run it on the record padded to
-            # its bucket (the last sample repeated; the solve is causal, so the record's own
-            # samples are unchanged) and cut on the host, one compilation per bucket
-            n = ag.shape[0]
-            padded = GroundMotion(
-                ag=np.pad(ag, (0, bucket_length(n) - n), mode="edge"), dt=motion.dt
-            )
-            u, v = wall_top_motion(wall_motion, padded, block.h)
-            u, v = np.asarray(u)[:n], np.asarray(v)[:n]
-        else:
-            u, v = wall_top_motion(wall_motion, motion, block.h)
-    check_wall_rotation(u, block.h)
+    u, v = wall_history(wall_motion, motion, block.h, motion.n)
     # NumPy when concrete: eager jnp ops on a new length would each compile once.
     vals = [concrete(x) for x in (u, v, block.h)]
     xp = jnp if any(x is None for x in vals) else np
@@ -158,15 +128,3 @@ def pad_wall(wall, n_pad: int, dt: float):
     theta = np.concatenate([theta, theta[-1] + rate[-1] * extra])
     rate = np.concatenate([rate, np.full(n_pad - n, rate[-1])])
     return jax.device_put(theta), jax.device_put(rate)
-
-
-def _is_series(w) -> bool:
-    """A 1-D array (or list) of numbers, as opposed to a ``(height, GroundMotion)`` pair."""
-    if isinstance(w, jax.Array | np.ndarray):
-        return w.ndim == 1
-    if isinstance(w, list | tuple):
-        try:
-            return np.asarray(w, dtype=float).ndim == 1
-        except (TypeError, ValueError):
-            return False
-    return False
