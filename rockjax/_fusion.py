@@ -12,9 +12,8 @@ summed, XLA:CPU evaluated the point law again for every sum).
 
 Under ``vmap`` a ``cond`` costs time instead (its results are materialised as vectors and the
 batch's predicate reduced every step), so :func:`one_computation` is used in one history
-(``single_history`` of the DEM's parameters, an eager call: its contact forces; of an
-assembly's, any call that is not batched: the end kinematics of its faces) and for an
-assembly's block elimination; docs/benchmarks.md "One history", docs/assemblies.md
+(the DEM driver's ``one_history``, any run that is not batched: the end kinematics of its
+faces) and for the step's solve; docs/benchmarks.md "One history", docs/assemblies.md
 "Performance". :func:`computed_once` (a reduction again) keeps single values whole in batches
 and histories alike.
 """

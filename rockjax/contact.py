@@ -193,7 +193,7 @@ def shear_force(fs_old, slip_rate, dt, k_s, f_el, tan_phi, beta, frac=None):
 # ------------------------------------------------------- the face law's closed part (geometry)
 # The integrated face law (docs/theory.md, "Integrated face contact") works on a penetration
 # that is affine along a face; these helpers find where it is closed and cut the face there.
-# rockjax.dem (block on the ground) and rockjax.multiblock (two blocks) share them.
+# Every face of rockjax.dem (a block's base, a bed or head joint, a return wall) uses them.
 
 
 def crossing(lo, hi, d_lo, d_hi):
@@ -227,8 +227,8 @@ def face_integrands(wfn, wf_el, wn, wf, slip, arm_n, arm_s):
     arm_n, arm_n^2)``; the shear dashpot's ``wf (1, arm_s, arm_s^2)``; and the slip's
     ``wf slip (1, arm_s)``. ``w`` is the point's weight, ``wf`` its weight times the closed
     fraction, ``wn`` the same where the normal dashpot acts (only where the total force is
-    compressive with a clipped dashpot). The arms are the lever arms (:mod:`rockjax.dem`) or
-    the face coordinate (:mod:`rockjax.multiblock`, whose arms are affine in it)."""
+    compressive with a clipped dashpot). ``arm_n``, ``arm_s`` are the lever arms, or the face
+    coordinate (:mod:`rockjax.dem`, whose arms are affine in it)."""
     return [
         wfn,
         wf_el,
