@@ -57,17 +57,31 @@ def _peaks(t, y, n):
     ids=["face", "n3-clipped"],
 )
 def test_one_block_equals_simulate_dem(joint):
-    """Reference: rj.simulate_dem on the same block, joint and step (the one-block assembly is
-    the same model: equal to round-off)."""
+    """A block is the assembly of one: simulate_dem(block) and the one-block assembly run the
+    same kernel, so their histories are equal to the bit (theta, x, y, the maxima, the
+    energy), eager and under vmap alike."""
     beta = 0.5 * float(rj.beta_dejong(ONE))
     dt = rj.stable_dt(ONE, beta, joint=joint)
-    kw = dict(beta=beta, theta0=0.3 * float(ONE.eta), dt=dt, joint=joint)
+    kw = dict(beta=beta, theta0=0.3 * float(ONE.eta), dt=dt, joint=joint, save=("energy",))
     ref = rj.simulate_dem(ONE, PULSE, **kw)
     r = simulate_assembly(Assembly.stack([ONE]), PULSE, **kw)
     assert r.theta.dtype == jnp.float64 and r.theta.shape == (PULSE.n, 1)
     scale = float(jnp.max(jnp.abs(ref.theta)))
     assert scale > 0.2 * float(ONE.eta)  # it rocked
     _assert_equals_single_block(r, ref, scale)
+    for a, b in ((r.theta[:, 0], ref.theta), (r.x[:, 0], ref.extras["x"]), (r.energy, ref.energy)):
+        np.testing.assert_array_equal(a, b)
+    assert float(r.theta_max[0]) == float(ref.theta_max)
+    assert float(r.d_max[0]) == float(ref.extras["d_max"])
+
+    def both(a):
+        gm = rj.GroundMotion(ag=a * jnp.asarray(PULSE.ag), dt=PULSE.dt)
+        one = rj.simulate_dem(ONE, gm, **kw).theta
+        stacked = rj.simulate_dem(Assembly.stack([ONE]), gm, **kw).theta[:, 0]
+        return one, stacked
+
+    one, stacked = jax.vmap(both)(jnp.array([0.5, 1.0]))
+    np.testing.assert_array_equal(one, stacked)
 
 
 def _assert_equals_single_block(r, ref, scale):
