@@ -235,7 +235,7 @@ def _ida(args: argparse.Namespace) -> int:
     check_outputs("--out", list(files.values()))
     scales = _parse_scales(args.scales)
     block = Block(b=args.b, h=args.h)  # raises ValueError on bad geometry
-    mode = as_mode(args.mode)
+    mode = as_mode(args.mode)  # its facts for the messages; rj.ida converts --mode --gap
     # checked here too (rj.ida checks them all) so the error comes before the records load
     if args.model == "housner" and args.beta is not None:
         raise ValueError(
@@ -300,7 +300,7 @@ def _ida(args: argparse.Namespace) -> int:
         motions,
         scales,
         model=args.model,
-        mode=mode,
+        mode=args.mode,  # with --gap: converted (and the gap checked) by rj.ida
         beta=beta,
         e=args.e,
         gap=args.gap,
