@@ -79,8 +79,8 @@ class Facade(eqx.Module):
 
     Attributes:
         gap: Distance between the back face and the return walls at rest [m] (a finite number
-            >= 0; traceable). Checked where it is built: a warning above
-            :data:`rockjax._checks.MAX_GAP` (millimetres typed for metres).
+            >= 0; traceable). Checked where it is built, with a
+            :class:`rockjax.PlausibilityWarning` above 0.1 m (millimetres typed for metres).
         name: ``"one_sided"``.
         one_sided: True.
         phi_deg: The paper's friction angle of its joints [deg]: 30.

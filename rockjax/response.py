@@ -180,7 +180,8 @@ class Response(eqx.Module):
         :meth:`e_exp` and of the calibration's verdict). Runs on concrete (NumPy) values.
 
         Args:
-            mode: ``"two_sided"`` or ``"one_sided"`` (a facade: the rebounds off the wall);
+            mode: :class:`rockjax.Parapet` / ``"two_sided"`` or :class:`rockjax.Facade` /
+                ``"one_sided"`` (a facade: the rebounds off the wall);
                 default (None) :func:`rocking_mode` of this history.
 
         Returns:
@@ -202,7 +203,7 @@ class Response(eqx.Module):
         Args:
             n_bounces: How many bounces to evaluate.
             theta0: Release rotation [rad]; default the first sample's ``|theta|``.
-            mode: ``"two_sided"`` or ``"one_sided"``; default (None) :func:`rocking_mode`.
+            mode: As :meth:`bounces`; default (None) :func:`rocking_mode`.
 
         Returns:
             NumPy array of ``e_exp`` for bounces 1..n (NaN where the bounce did not happen).
