@@ -144,7 +144,7 @@ def grid(
                                 f"give beta={{({label!r}, {mode!r}): value in s, ...}}."
                             )
                         kw["beta"] = float(beta[(label, mode)])
-                        kw["mode"] = as_mode(rocking, gap) if rocking.one_sided else rocking
+                        kw["mode"] = as_mode(given, gap) if rocking.one_sided else rocking
                     elif e is not None and (label, mode) in e:
                         kw["e"] = float(e[(label, mode)])
                     name = f"{label}_{mode}_{model}_{rs}"
