@@ -2,7 +2,8 @@
 
 Conventions: SI units, radians, float64. ``theta > 0`` when the block rotates about its +x
 bottom corner; a positive ground acceleration drives ``theta`` negative; a facade
-(``mode="one_sided"``) rotates only to ``theta >= 0``, its return walls at its -x face.
+(``mode=rj.Facade(gap=...)``, or ``mode="one_sided"``) rotates only to ``theta >= 0``, its return
+walls at its -x face; a parapet (``rj.Parapet()``, ``"two_sided"``) rocks both ways.
 """
 
 import os as _os
@@ -69,6 +70,9 @@ from .fragility import fragility as fragility  # noqa: E402
 from .housner import simulate_housner as simulate_housner  # noqa: E402
 from .ida import collapse_intervals as collapse_intervals  # noqa: E402
 from .ida import ida as ida  # noqa: E402
+from .modes import Facade as Facade  # noqa: E402
+from .modes import Parapet as Parapet  # noqa: E402
+from .modes import as_mode as as_mode  # noqa: E402
 from .motion import GroundMotion as GroundMotion  # noqa: E402
 from .pulses import identify_pulse as identify_pulse  # noqa: E402
 from .pushover import Capacity as Capacity  # noqa: E402
@@ -99,15 +103,18 @@ __all__ = [
     "Block",
     "Calibration",
     "Capacity",
+    "Facade",
     "Fragility",
     "GroundMotion",
     "Joint",
     "LimitAnalysis",
+    "Parapet",
     "PlausibilityWarning",
     "Response",
     "ShearBuilding",
     "ThreeBranchFit",
     "ThreeBranchLaw",
+    "as_mode",
     "beta_dejong",
     "beta_hcrit",
     "beta_isr",

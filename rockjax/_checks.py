@@ -239,9 +239,16 @@ brick's width) the value is more likely millimetres typed for metres (``gap=1`` 
 
 GAP_NEEDS_ONE_SIDED = (
     "gap is the distance to a facade's return walls and needs mode='one_sided' (a facade); "
-    "mode='two_sided' (a parapet) has none. Pass mode='one_sided', or leave gap=0."
+    "mode='two_sided' (a parapet) has none. Pass mode='one_sided' (or mode=rj.Facade(gap=...)), "
+    "or leave gap=0."
 )
 """Why a gap is refused with ``mode="two_sided"`` (:func:`check_gap`), in every entry point."""
+
+HOUSNER_GAP_UNUSED = (
+    "the Housner models have no facade gap (their facade stands flush on its return walls). "
+    "Use the DEM (model='dem', rj.simulate_dem) for a gap, or leave gap=0 (rj.Facade())."
+)
+"""Why a facade's gap is refused by the Housner models (``simulate_housner``, ``ida``)."""
 
 GAP_HINT = "gap is the facade-to-return-wall distance, e.g. 0.001."
 """The fix named for a gap that is no finite number >= 0."""

@@ -46,6 +46,7 @@ from ._checks import check_nonnegative, check_scales
 from ._lazy import lazy_module
 from .block import Block
 from .ida import DEFAULT_SCALES, MODELS, ida, run_config
+from .modes import Mode, as_mode
 from .motion import GroundMotion
 
 xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
@@ -63,20 +64,29 @@ class Case:
         block: The block (scalar fields).
         records: Key of the record set in the ``records`` mapping given to :func:`run`.
         model: ``"dem"`` or ``"housner"``.
-        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
+        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade): given as a name or as
+            :class:`rockjax.Parapet` / :class:`rockjax.Facade`, kept as its name (the
+            manifest's and the results' label).
         beta: DEM damping [s] (required for the DEM).
         e: Housner restitution [-] (default as :func:`rockjax.simulate_housner`).
-        gap: DEM facade gap [m].
+        gap: DEM facade gap [m]: given apart (with ``mode="one_sided"``) or in the Facade;
+            kept as a float (0 for a parapet).
     """
 
     name: str
     block: Block
     records: str
     model: str = "dem"
-    mode: str = "two_sided"
+    mode: Mode | str = "two_sided"
     beta: float | None = None
     e: float | None = None
-    gap: float = 0.0
+    gap: float | None = None
+
+    def __post_init__(self):
+        # converted once (rockjax.as_mode), kept as the name and the float gap of the spec
+        mode = as_mode(self.mode, self.gap)
+        object.__setattr__(self, "mode", mode.name)
+        object.__setattr__(self, "gap", float(mode.gap))
 
     def spec(self) -> dict:
         """The case as JSON-ready values (the block as its fields)."""
@@ -97,32 +107,36 @@ def grid(
     blocks: Mapping[str, Block],
     record_sets: Sequence[str],
     *,
-    modes: Sequence[str] = ("two_sided", "one_sided"),
+    modes: Sequence[Mode | str] = ("two_sided", "one_sided"),
     models: Sequence[str] = ("dem", "housner"),
     beta: Mapping[tuple[str, str], float] | None = None,
     e: Mapping[tuple[str, str], float] | None = None,
-    gap: float = 0.0,
+    gap: float | None = None,
 ) -> list[Case]:
     """Every combination of block x mode x model x record set, as :class:`Case` s.
 
     Args:
         blocks: Label -> block, e.g. ``{"h3.00": rj.Block(b=0.25, h=3.0)}``.
         record_sets: Keys of the record sets (as in the mapping given to :func:`run`).
-        modes: Modes to run.
+        modes: Modes to run: names, or :class:`rockjax.Parapet` / :class:`rockjax.Facade`
+            (a Facade's gap is that of its DEM cases).
         models: Models to run.
-        beta: ``(block label, mode) -> beta`` [s] for the DEM cases (required with ``"dem"``).
-        e: ``(block label, mode) -> e`` for the Housner cases (default: Eq. 2 / Eq. 5).
-        gap: Facade gap of the DEM one-sided cases [m].
+        beta: ``(block label, mode name) -> beta`` [s] for the DEM cases (required with
+            ``"dem"``).
+        e: ``(block label, mode name) -> e`` for the Housner cases (default: Eq. 2 / Eq. 5).
+        gap: Facade gap of the DEM one-sided cases [m]; default None (0, or the Facade's own).
 
     Returns:
         Cases named ``"<block>_<mode>_<model>_<record set>"``.
     """
     cases = []
     for label, block in blocks.items():
-        for mode in modes:
+        for given in modes:
+            rocking = as_mode(given)
+            mode = rocking.name
             for model in models:
                 for rs in record_sets:
-                    kw = {}
+                    kw = {"mode": rocking.without_gap()}  # Housner's facade has no gap
                     if model == "dem":
                         if beta is None or (label, mode) not in beta:
                             raise ValueError(
@@ -130,11 +144,11 @@ def grid(
                                 f"give beta={{({label!r}, {mode!r}): value in s, ...}}."
                             )
                         kw["beta"] = float(beta[(label, mode)])
-                        kw["gap"] = float(gap) if mode == "one_sided" else 0.0
+                        kw["mode"] = as_mode(given, gap) if rocking.one_sided else rocking
                     elif e is not None and (label, mode) in e:
                         kw["e"] = float(e[(label, mode)])
                     name = f"{label}_{mode}_{model}_{rs}"
-                    cases.append(Case(name, block, rs, model=model, mode=mode, **kw))
+                    cases.append(Case(name, block, rs, model=model, **kw))
     return cases
 
 

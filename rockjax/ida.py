@@ -55,6 +55,7 @@ import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -64,6 +65,7 @@ from . import _progress
 from ._checks import (
     GAP_HINT,
     GAP_NEEDS_ONE_SIDED,
+    HOUSNER_GAP_UNUSED,
     check_choice,
     check_gap,
     check_nonnegative,
@@ -81,8 +83,8 @@ from .constants import G
 from .contact import Joint
 from .dem import simulate_assembly, simulate_dem, stable_dt, stable_dt_assembly
 from .housner import P_DT_TARGET, batch_runs, check_restitution, simulate_housner
+from .modes import MODE_NAMES, Mode, as_mode
 from .motion import GroundMotion
-from .relations import e_housner, e_isr
 from .response import STATUS_OK
 from .spectra import IntensityMeasure, intensity, parse_im
 from .supports import check_storey, check_walls_in_building, storey_supports, wall_top_motion
@@ -91,7 +93,7 @@ from .three_branch import ThreeBranchFit, ThreeBranchLaw
 xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
 
 MODELS = ("dem", "housner", "three_branch")
-MODES = ("two_sided", "one_sided")
+MODES = MODE_NAMES
 
 DEFAULT_SCALES = np.linspace(0.05, 2.0, 40)
 DEFAULT_SCALES.flags.writeable = False
@@ -103,10 +105,10 @@ def ida(
     scales: Float[ArrayLike, " scale"] | Sequence[float] = DEFAULT_SCALES,
     *,
     model: str = "dem",
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     beta: ScalarLike | None = None,
     e: ScalarLike | None = None,
-    gap: ScalarLike = 0.0,
+    gap: ScalarLike | None = None,
     tail: ScalarLike = 2.0,
     t_end: ScalarLike | None = None,
     chunk_size: int = 256,
@@ -136,14 +138,17 @@ def ida(
         model: ``"dem"`` (:func:`rockjax.simulate_dem`), ``"housner"``
             (:func:`rockjax.simulate_housner`) or ``"three_branch"`` (``simulate_housner`` with
             ``law``).
-        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
+        mode: :class:`rockjax.Parapet` (``"two_sided"``) or :class:`rockjax.Facade`
+            (``"one_sided"``; :func:`rockjax.as_mode`). The Dataset's ``mode`` attribute is its
+            name.
         beta: DEM only, required: stiffness-proportional Rayleigh coefficient [s], Eq. (1). The
             DEM step is the largest divisor of the record step not above
             ``rj.stable_dt(block, beta, mode=mode)``, as in a single run.
         e: Housner only: coefficient of restitution [-]; default as in
             :func:`rockjax.simulate_housner` (``e_H``, Eq. (2), two-sided; ``|e_1sr|``, Eq. (5),
             one-sided).
-        gap: DEM one-sided only: facade-to-return-wall gap [m].
+        gap: DEM one-sided only, with ``mode="one_sided"``: facade-to-return-wall gap [m];
+            default None (0, or the Facade's own).
         tail: Free vibration appended after the longest record [s].
         t_end: Length of every run [s]; default the longest record + ``tail``. Give it to make
             a subset of a record set run exactly as in a call on the whole set (a campaign's
@@ -227,10 +232,10 @@ def run_config(
     block: Block | Assembly,
     *,
     model: str,
-    mode: str,
+    mode: Mode | str,
     beta=None,
     e=None,
-    gap=0.0,
+    gap=None,
     joint=None,
     law=None,
     wall_motion=None,
@@ -239,15 +244,19 @@ def run_config(
 ):
     """Checked run parameters of :func:`ida`: ``(block, config, e_used)``.
 
-    ``block`` has Python-float fields; ``config`` holds ``model``, ``mode``, ``beta``, ``e``,
-    ``gap`` (Python floats or None), ``joint`` (the DEM's :class:`rockjax.Joint`, None for
+    ``block`` has Python-float fields; ``config`` holds ``model``, ``mode`` (the mode object,
+    a facade's ``gap`` a Python float), ``beta``, ``e`` (Python floats or None), ``joint`` (the DEM's :class:`rockjax.Joint`, None for
     Housner), ``law``, ``wall_motion``, ``support_motion``, ``storey`` (an int, 1 without a
     building) and ``dt_bound``, the solver step bound [s]; ``e_used``
     is the Housner restitution the runs use (None for the DEM). Raises ValueError as
     :func:`ida`.
     """
     check_choice("model", model, MODELS)
-    check_choice("mode", mode, MODES)
+    if model != "dem":
+        unused = HOUSNER_GAP_UNUSED
+    else:
+        unused = ASSEMBLY_GAP_UNUSED if isinstance(block, Assembly) else GAP_NEEDS_ONE_SIDED
+    mode = as_mode(mode, gap, unused=unused)
     if isinstance(block, Assembly):
         if model != "dem":
             raise ValueError(
@@ -287,17 +296,15 @@ def run_config(
                 f"record drives the return walls); got {type(wall_motion).__name__}. For "
                 "recorded floor motions, call the simulators with wall_motion=... per record."
             )
-        if mode != "one_sided":
+        if not mode.one_sided:
             raise ValueError(
                 f"wall_motion moves a facade's return walls and needs mode='one_sided'; got "
-                f"mode={mode!r}. For a parapet on a roof, run the IDA on the roof's motions "
+                f"mode={mode.name!r}. For a parapet on a roof, run the IDA on the roof's motions "
                 "(bldg.floor_motions(record)[-1])."
             )
-    if model != "dem":
-        unused = "the Housner models have no facade gap. Use model='dem', or leave gap=0."
-    else:
-        unused = ASSEMBLY_GAP_UNUSED if isinstance(block, Assembly) else GAP_NEEDS_ONE_SIDED
-    check_gap(gap, used=mode == "one_sided" and model == "dem", unused=unused, hint=GAP_HINT)
+    check_gap(mode.gap, used=model == "dem", unused=unused, hint=GAP_HINT)
+    if mode.one_sided:  # a Python float: static under filter_jit, like the block
+        mode = eqx.tree_at(lambda m: m.gap, mode, float(mode.gap))
     if model == "dem":
         if e is not None:
             raise ValueError(
@@ -319,7 +326,7 @@ def run_config(
         if isinstance(block, Assembly):
             dt_bound = stable_dt_assembly(block, beta, joint=joint, mode=mode)
         else:
-            dt_bound = stable_dt(block, beta, mode=mode, gap=gap, joint=joint)
+            dt_bound = stable_dt(block, beta, mode=mode, joint=joint)
         e_used = None
     else:
         if beta is not None:
@@ -332,17 +339,14 @@ def run_config(
                 f"joint (the DEM's contact joint) is not a Housner parameter; got joint={joint!r}. "
                 "Drop it, or use model='dem'."
             )
-        one_sided = mode == "one_sided"
         if e is not None:
             check_scalar("e", e, "[-]", "e.g. e=0.9, or e=None for the default.")
         e = None if e is None else float(e)
         # the simulator's default: Eq. (2) two-sided, Eq. (5) one-sided; e_H < 0 for a block
         # wider than tall (eta > 54.7 deg) is refused here, not run into failed runs
-        e_run = (
-            e if e is not None else float(e_isr(block.eta) if one_sided else e_housner(block.eta))
-        )
-        check_restitution(e_run, one_sided, default=e is None)
-        e_used = abs(e_run) if one_sided else e_run  # simulate_housner uses |e| one-sided
+        e_run = e if e is not None else float(mode.default_e(block.eta))
+        check_restitution(e_run, mode, default=e is None)
+        e_used = mode.e_magnitude(e_run)  # what simulate_housner uses (|e| one-sided)
         # the step bound simulate_housner picks for a concrete block
         dt_bound = P_DT_TARGET / float(block.p)
     config = dict(
@@ -350,7 +354,6 @@ def run_config(
         mode=mode,
         beta=beta,
         e=e,
-        gap=float(gap),
         joint=joint,
         law=law,
         wall_motion=wall_motion,
@@ -675,10 +678,10 @@ def _assemble(plan: _Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
 
     attrs = {
         "model": config["model"],
-        "mode": config["mode"],
+        "mode": config["mode"].name,
         "im": im.name,
         **_block_attrs(block),
-        "gap": config["gap"],
+        "gap": float(config["mode"].gap),
         "tail": plan.tail,
         "t_end": plan.t_end,
         "rockjax_version": __version__,
@@ -871,7 +874,6 @@ def _run_chunk(
     mode,
     beta,
     e,
-    gap,
     joint,
     law,
     dt_rec,
@@ -882,7 +884,7 @@ def _run_chunk(
     ``support``: None, or an assembly's base acceleration (and top restraint's ``(u, v)``) per
     record at scale 1 (:func:`_support_histories`), scaled likewise."""
 
-    common = dict(beta=beta, mode=mode, gap=gap, dt=dt_bound, joint=joint, throw=False)
+    common = dict(beta=beta, mode=mode, dt=dt_bound, joint=joint, throw=False)
 
     def one(i, s):
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])

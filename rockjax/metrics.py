@@ -25,6 +25,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
+from .modes import Mode, as_mode
 from .relations import rocking_energy
 from .response import HYSTERESIS as HYSTERESIS  # the bounce thresholds, shared with the
 from .response import MODES as MODES  # NumPy finder rockjax.response.bounce_peaks
@@ -50,7 +51,10 @@ class Peaks(eqx.Module):
 
 
 def half_cycles(
-    theta: Float[ArrayLike, " T"], eta, mode: str = "two_sided", hysteresis: float = HYSTERESIS
+    theta: Float[ArrayLike, " T"],
+    eta,
+    mode: Mode | str = "two_sided",
+    hysteresis: float = HYSTERESIS,
 ) -> Int[Array, " T"]:
     """Index of the half-cycle each sample belongs to (0 before the first impact) [-].
 
@@ -59,12 +63,11 @@ def half_cycles(
     V-shaped minimum whose chord reaches the wall within one sample: an instantaneous impact
     between samples). No derivative flows through the result.
     """
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}; got {mode!r}.")
+    mode = as_mode(mode)
     theta = jax.lax.stop_gradient(jnp.asarray(theta, float))
     eps = hysteresis * jax.lax.stop_gradient(jnp.asarray(eta, float))
 
-    if mode == "two_sided":
+    if not mode.one_sided:
         side0 = jnp.where(theta[0] < 0, -1.0, 1.0)
 
         def step(carry, th):
@@ -111,7 +114,7 @@ def peaks(
     theta: Float[ArrayLike, " T"],
     eta,
     n: int,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     hysteresis: float = HYSTERESIS,
 ) -> Peaks:
     """The release and the first ``n`` half-cycle peaks of ``|theta(t)|``, differentiably.
@@ -123,7 +126,8 @@ def peaks(
         theta: Rotation [rad]; the first sample is the release (from rest).
         eta: Slenderness angle [rad].
         n: Number of bounces (static).
-        mode: ``"two_sided"`` or ``"one_sided"``.
+        mode: :class:`rockjax.Parapet` / ``"two_sided"`` or :class:`rockjax.Facade` /
+            ``"one_sided"`` (:func:`rockjax.as_mode`).
         hysteresis: Impact detection threshold as a fraction of ``eta`` (:data:`HYSTERESIS`).
 
     Returns:
@@ -131,12 +135,11 @@ def peaks(
         ``valid=False`` and amplitude ``hysteresis * eta`` (an upper bound: the block rocked
         less than that, or the run ended first).
     """
+    mode = as_mode(mode)
     t = jnp.asarray(t, float)
     theta = jnp.asarray(theta, float)
     eta = jnp.asarray(eta, float)
-    # one-sided, a rebound is a rotation away from the wall (theta > 0); theta < 0 is the
-    # contact's penetration into the wall, not rocking energy
-    y = jnp.abs(theta) if mode == "two_sided" else jnp.maximum(theta, 0.0)
+    y = mode.amplitude(theta)  # one-sided the rebounds: theta < 0 is the wall's penetration
     seg = half_cycles(theta, eta, mode, hysteresis)
     m = n + 1
     idx = jnp.arange(y.shape[0])

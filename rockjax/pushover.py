@@ -21,7 +21,6 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ._checks import (
-    check_choice,
     check_kind,
     check_nonnegative,
     check_positive,
@@ -31,7 +30,8 @@ from .assembly import Assembly, limit_analysis
 from .block import Block
 from .constants import G
 from .contact import Joint
-from .dem import MODES, dem_params, initial_state, stable_dt, step
+from .dem import dem_params, initial_state, stable_dt, step
+from .modes import Mode, Parapet, as_mode
 from .relations import beta_dejong
 
 CONTROL_STIFFNESS = 50.0
@@ -123,7 +123,7 @@ class Capacity(eqx.Module):
 
 def pushover(
     block: Block | Assembly,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     overburden=0.0,
     *,
     beta=None,
@@ -132,7 +132,7 @@ def pushover(
     n_out: int = 400,
     joint: Joint = Joint(),
     phi_deg=None,
-    gap=0.0,
+    gap=None,
 ) -> Capacity:
     """Quasi-static monotonic DEM pushover of a block or an assembly, displacement-controlled.
 
@@ -155,8 +155,9 @@ def pushover(
     Args:
         block: The block (``E`` sets the joint's stiffness, Section 2), or an
             :class:`rockjax.Assembly`.
-        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade with its return wall at
-            -x; it is pulled away from the wall).
+        mode: :class:`rockjax.Parapet` (``"two_sided"``) or :class:`rockjax.Facade`
+            (``"one_sided"``: its return wall at -x, its ``gap`` behind the back face; it is
+            pulled away from the wall).
         overburden: Vertical load at the top centre ``N`` [N/m] (per metre of length).
         beta: Stiffness-proportional damping [s], Eq. (1), to damp the contact vibrations;
             default :func:`rockjax.beta_dejong` (critical damping at ``omega_crit``).
@@ -169,7 +170,8 @@ def pushover(
         n_out: Number of output samples along the pull.
         joint: The contact joint (:class:`rockjax.Joint`); default the integrated face law.
         phi_deg: Friction angle [deg]; default 50 (parapets) or 30 (facades).
-        gap: Facade gap [m] (one-sided only).
+        gap: With ``mode="one_sided"``: the facade's gap [m]; default None (0, or the
+            Facade's own).
 
     Returns:
         The :class:`Capacity` curve, ``n_out`` samples from the start of pulling.
@@ -183,7 +185,6 @@ def pushover(
         (Block, Assembly),
         "Build one with rj.Block(b=0.25, h=3.0) or rj.Assembly.stack([...]).",
     )
-    check_choice("mode", mode, MODES)
     check_positive(
         "d_over_b",
         d_over_b,
@@ -201,7 +202,7 @@ def pushover(
     if not (isinstance(n_out, int) and not isinstance(n_out, bool) and n_out >= 2):
         raise ValueError(f"n_out (output samples) must be an integer >= 2; got n_out={n_out!r}.")
     if isinstance(block, Assembly):
-        if mode != "two_sided" or gap != 0.0:
+        if as_mode(mode).one_sided or (gap is not None and gap != 0.0):
             raise ValueError(
                 f"mode={mode!r}, gap={gap!r}: an Assembly stands on the ground with its own top "
                 "support; leave mode='two_sided' and gap=0 (set Assembly.stack(top=, gap=))."
@@ -212,7 +213,13 @@ def pushover(
                 "it with Assembly.stack(..., overburden=<N/m>) and leave overburden=0."
             )
         return _pushover_assembly(
-            block, beta, d_over_b, duration, n_out, joint, 50.0 if phi_deg is None else phi_deg
+            block,
+            beta,
+            d_over_b,
+            duration,
+            n_out,
+            joint,
+            Parapet.phi_deg if phi_deg is None else phi_deg,
         )
     check_nonnegative(
         "overburden",
@@ -221,11 +228,12 @@ def pushover(
         "The load per metre of wall length at the top.",
         scalar=True,
     )
+    mode = as_mode(mode, gap)
     if beta is None:
         beta = float(beta_dejong(block))
     p = float(block.p)
     duration = _pull_duration(duration, d_over_b, p)
-    params = dem_params(block, beta, mode=mode, gap=gap, joint=joint, phi_deg=phi_deg)
+    params = dem_params(block, beta, mode=mode, joint=joint, phi_deg=phi_deg)
     dt = stable_dt(block, beta, mode=mode, joint=joint)
     b, h = float(block.b), float(block.h)
     m = float(block.m)

@@ -10,6 +10,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+from .modes import MODE_NAMES, Facade, Mode, Parapet, as_mode
+
 HYSTERESIS = 2e-3
 """Impact detection threshold as a fraction of ``eta`` [-]: two-sided, an impact is counted when
 ``theta`` reaches the other side beyond ``HYSTERESIS * eta``; one-sided, when ``theta`` falls
@@ -19,7 +21,7 @@ Sub-threshold rocking (e.g. the penalty contact's micro-vibration, ~1e-6 rad) is
 RELATIVE_BOUNCE = 0.02
 """One-sided: a rebound is a bounce only if it rises above this fraction of the previous peak."""
 
-MODES = ("two_sided", "one_sided")
+MODES = MODE_NAMES
 
 STATUS_OK = 0
 STATUS_NONFINITE = 1
@@ -172,13 +174,14 @@ class Response(eqx.Module):
         """
         return find_peaks(np.asarray(self.t), np.abs(np.asarray(self.theta)), min_separation)
 
-    def bounces(self, mode: str | None = None):
+    def bounces(self, mode: Mode | str | None = None):
         """Bounce peak times and amplitudes ``|theta_k|``, ``k >= 1``, of a free-rocking history
         released from rest: :func:`bounce_peaks` on the saved samples (the finder of
         :meth:`e_exp` and of the calibration's verdict). Runs on concrete (NumPy) values.
 
         Args:
-            mode: ``"two_sided"`` or ``"one_sided"`` (a facade: the rebounds off the wall);
+            mode: :class:`rockjax.Parapet` / ``"two_sided"`` or :class:`rockjax.Facade` /
+                ``"one_sided"`` (a facade: the rebounds off the wall);
                 default (None) :func:`rocking_mode` of this history.
 
         Returns:
@@ -187,7 +190,9 @@ class Response(eqx.Module):
         mode = rocking_mode(self) if mode is None else mode
         return bounce_peaks(self.t, self.theta, self.eta, mode)
 
-    def e_exp(self, n_bounces: int = 3, theta0: float | None = None, mode: str | None = None):
+    def e_exp(
+        self, n_bounces: int = 3, theta0: float | None = None, mode: Mode | str | None = None
+    ):
         """Experimental coefficient of restitution of bounces 1..n from peak rotations, Eq. (6).
 
         ``e_exp,n = [ (1 - (1 - |theta_n|/eta)^2) / (1 - (1 - |theta_0|/eta)^2) ]^(1/(2n))``
@@ -198,7 +203,7 @@ class Response(eqx.Module):
         Args:
             n_bounces: How many bounces to evaluate.
             theta0: Release rotation [rad]; default the first sample's ``|theta|``.
-            mode: ``"two_sided"`` or ``"one_sided"``; default (None) :func:`rocking_mode`.
+            mode: As :meth:`bounces`; default (None) :func:`rocking_mode`.
 
         Returns:
             NumPy array of ``e_exp`` for bounces 1..n (NaN where the bounce did not happen).
@@ -279,12 +284,11 @@ def e_exp(theta_n, theta0, eta, n):
     return (num / den) ** (1.0 / (2.0 * n))
 
 
-def impact_threshold(mode: str) -> float:
+def impact_threshold(mode: Mode | str) -> float:
     """Impact threshold of the bounce finders as a fraction of ``eta`` [-]: :data:`HYSTERESIS`
-    two-sided, a tenth of it one-sided (facade bounces are small)."""
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}; got mode={mode!r}.")
-    return HYSTERESIS if mode == "two_sided" else 0.1 * HYSTERESIS
+    times the mode's ``threshold_scale`` (two-sided 1, one-sided a tenth: facade bounces are
+    small)."""
+    return as_mode(mode).threshold_scale * HYSTERESIS
 
 
 def rocking_mode(resp: Response) -> str:
@@ -293,10 +297,11 @@ def rocking_mode(resp: Response) -> str:
     else ``"two_sided"``."""
     th = np.asarray(resp.theta, float)
     side = 1.0 if th[0] >= 0 else -1.0
-    return "one_sided" if np.min(side * th) > -HYSTERESIS * float(resp.eta) else "two_sided"
+    one_sided = np.min(side * th) > -HYSTERESIS * float(resp.eta)
+    return (Facade if one_sided else Parapet).name
 
 
-def bounce_peaks(t, theta, eta, mode: str) -> tuple[np.ndarray, np.ndarray]:
+def bounce_peaks(t, theta, eta, mode: Mode | str) -> tuple[np.ndarray, np.ndarray]:
     """Bounce peak times [s] and amplitudes ``|theta_k|``, ``k >= 1`` [rad] of a history released
     from rest (``theta[0]``), found in NumPy on the saved samples.
 
@@ -311,10 +316,12 @@ def bounce_peaks(t, theta, eta, mode: str) -> tuple[np.ndarray, np.ndarray]:
 
     Args:
         t: Sample times [s], uniform. theta: Rotation [rad]. eta: Slenderness [rad].
-        mode: ``"two_sided"`` or ``"one_sided"``.
+        mode: :class:`rockjax.Parapet` / ``"two_sided"`` or :class:`rockjax.Facade` /
+            ``"one_sided"``.
     """
+    mode = as_mode(mode)
     th = np.asarray(theta, float)
-    y = np.abs(th) if mode == "two_sided" else np.maximum(th, 0.0)
+    y = mode.amplitude(th)
     idx = np.flatnonzero((y[1:-1] > y[:-2]) & (y[1:-1] >= y[2:])) + 1
     merged = [0]  # the release: a noisy maximum on its flight is the release, not a bounce
     for i in idx:

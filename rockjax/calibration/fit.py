@@ -20,6 +20,7 @@ from ..compilation import notice_once, persistent_jit
 from ..contact import Joint
 from ..dem import simulate_dem
 from ..housner import simulate_housner
+from ..modes import Mode, as_mode
 from ..relations import e_isr
 from ..response import STATUS_MESSAGES, STATUS_OK, Response
 from . import solvers
@@ -108,7 +109,7 @@ def fit_beta(
     e=None,
     *,
     target: str | None = None,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     theta0=None,
     n_bounces: int | None = None,
     beta0: float | None = None,
@@ -120,7 +121,7 @@ def fit_beta(
     rtol: float = 1e-4,
     max_iter: int = 40,
     joint: Joint | None = None,
-    gap: float = 0.0,
+    gap: float | None = None,
     progress: bool | None = None,
 ) -> Calibration:
     """Fit the DEM's ``beta`` [s] so that its free rocking matches Housner's with restitution ``e``.
@@ -133,7 +134,8 @@ def fit_beta(
             of bounces 1-3 to :data:`BOUNCE_FRACTIONS` of ``|e_ISR|``, Eq. 5-6); default
             (None) the mode's, :func:`default_target`: ``"e"`` two-sided, ``"bounces"``
             one-sided.
-        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
+        mode: :class:`rockjax.Parapet` (``"two_sided"``) or :class:`rockjax.Facade`
+            (``"one_sided"``; :func:`rockjax.as_mode`).
         theta0: Release rotation(s) [rad] (default ``0.5 eta``); several are averaged.
         n_bounces: Impacts compared (default 8 two-sided, 3 one-sided).
         beta0: Starting ``beta`` [s]; default: seeded by a vmapped scan of ``n_seed`` values.
@@ -152,7 +154,8 @@ def fit_beta(
         max_iter: Iteration cap (L-BFGS or root find).
         joint: The DEM's contact joint (:class:`rockjax.Joint`; default ``rj.Joint()``, the
             integrated face law).
-        gap: Facade gap [m].
+        gap: With ``mode="one_sided"``: the facade's gap [m]; default None (0, or the
+            Facade's own).
         progress: A progress bar over the iterations (tqdm, on stderr; ``method="lbfgs"`` and
             ``"root"``): None (default) shows it when stderr is a terminal, True always, False
             never.
@@ -176,6 +179,7 @@ def fit_beta(
     """
     check_choice("method", method, METHODS)
     check_choice("loss", loss, LOSSES)
+    mode = as_mode(mode, gap)
     if loss == "history":
         return _fit_history_error(
             block,
@@ -191,7 +195,6 @@ def fit_beta(
             rtol=rtol,
             max_iter=max_iter,
             joint=joint,
-            gap=gap,
             progress=progress,
         )
     _check_stopping(rtol, max_iter, 1e-4, 40)
@@ -201,8 +204,8 @@ def fit_beta(
         check_scalar("beta0", beta0, "s", "Leave beta0=None to seed it from a scan.")
     t_start = time.perf_counter()
     notice_once(
-        ("fit_beta", mode, method),
-        f"rockjax: compiling the {mode} calibration (DEM and Housner runs; once per session)...",
+        ("fit_beta", mode.name, method),
+        f"rockjax: compiling the {mode.name} calibration (DEM and Housner runs; once per session)...",
     )
     problem, h_resps = build_problem(
         block,
@@ -213,7 +216,6 @@ def fit_beta(
         n_bounces=n_bounces,
         beta_max=beta_max,
         joint=joint,
-        gap=gap,
     )
     bmax = float(problem.beta_cap) / 1.25
     # reachability, slope scale, and (no beta0) a seed: one vmapped batch of DEM runs
@@ -343,8 +345,9 @@ def _fit_history_error(block, e, *, target, mode, method, rtol, max_iter, progre
             f"loss='history' compares the DEM's time history with Housner's for a restitution "
             f"e; got target={target!r}. Use target='e' (or leave it None)."
         )
-    if e is None and mode == "one_sided":
-        e = abs(float(e_isr(concrete_block(block))))  # Eq. 5: Housner's one-sided reference
+    if e is None and mode.one_sided:
+        # Eq. 5: Housner's one-sided reference, |e_1SR|
+        e = mode.e_magnitude(float(mode.default_e(concrete_block(block))))
     t_start = time.perf_counter()
     start = fit_beta(
         block,
@@ -366,7 +369,6 @@ def _fit_history_error(block, e, *, target, mode, method, rtol, max_iter, progre
         n_bounces=kw["n_bounces"],
         beta_max=kw["beta_max"],
         joint=kw["joint"],
-        gap=kw["gap"],
     )
     beta_start = max(float(start.beta), 1e-6 * float(problem.beta_cap))
     # the search stays near the start: beta in [0, HISTORY_SPAN beta_start] (the step, sized
@@ -634,11 +636,11 @@ def e_effective(
     block: Block,
     beta,
     *,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     theta0=None,
     n_bounces: int | None = None,
     joint: Joint | None = None,
-    gap: float = 0.0,
+    gap: float | None = None,
     beta_max: float | None = None,
 ) -> dict:
     """The DEM's restitution at each ``beta`` [s] (an array: one vmapped batch), from free rocking.
@@ -652,6 +654,7 @@ def e_effective(
     did not happen), ``"ok"`` (run status).
     """
     betas = np.atleast_1d(np.asarray(beta, float))
+    mode = as_mode(mode, gap)
     if beta_max is None:
         beta_max = default_beta_max(concrete_block(block), mode)
     problem, _ = build_problem(
@@ -663,7 +666,6 @@ def e_effective(
         n_bounces=n_bounces,
         beta_max=max(beta_max, float(np.max(betas)) / 1.25 + 1e-15),
         joint=joint,
-        gap=gap,
     )
     log_e, e3, ok = _e_batch(problem, betas)
     return {
@@ -706,11 +708,11 @@ def fit_e(
     block: Block,
     beta: float,
     *,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     theta0=None,
     n_bounces: int | None = None,
     joint: Joint | None = None,
-    gap: float = 0.0,
+    gap: float | None = None,
     rtol: float = 1e-6,
     max_iter: int = 30,
 ) -> Calibration:
@@ -741,6 +743,7 @@ def fit_e(
         scalar=True,
     )
     _check_stopping(rtol, max_iter, 1e-6, 30)
+    mode = as_mode(mode, gap)
     problem, _ = build_problem(
         block,
         e=1.0,
@@ -750,7 +753,6 @@ def fit_e(
         n_bounces=n_bounces,
         beta_max=max(float(beta), 1e-9),
         joint=joint,
-        gap=gap,
     )
     dem_pk, status = _dem_peaks_jit(problem, jnp.asarray(float(beta)))
     if not bool(np.all(np.asarray(status) == STATUS_OK)):
@@ -765,7 +767,7 @@ def fit_e(
         block=problem.block,
         theta0=problem.theta0,
         dem=dem_pk,
-        mode=mode,
+        mode=mode.without_gap(),  # Housner's facade stands flush on its walls
         n_bounces=problem.n_bounces,
         duration=problem.duration,
         hysteresis=problem.hysteresis,
@@ -780,7 +782,12 @@ def fit_e(
     th0 = float(problem.theta0[0])
     dem = dem_run(problem, float(beta), th0)
     housner = simulate_housner(
-        problem.block, e=e_fit, mode=mode, theta0=th0, duration=problem.duration, dt=SAVE_DT
+        problem.block,
+        e=e_fit,
+        mode=mode.without_gap(),
+        theta0=th0,
+        duration=problem.duration,
+        dt=SAVE_DT,
     )
     t_last = last_compared_time(housner, problem)
     w = (np.asarray(dem.t) <= t_last).astype(float)
@@ -817,7 +824,7 @@ def fit_history(
     measured: Response,
     *,
     beta0: float | None = None,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     n_bounces: int = 8,
     rtol: float = 1e-5,
     max_iter: int = 50,
@@ -836,7 +843,8 @@ def fit_history(
         block: The nominal block (its ``b`` is the start; ``h``, ``rho``, ``E`` are kept).
         measured: The measured response (uniform samples; e.g. a test record as a Response).
         beta0: Starting ``beta`` [s] (default ``0.3 beta_DeJong``).
-        mode: ``"two_sided"`` or ``"one_sided"``.
+        mode: :class:`rockjax.Parapet` / ``"two_sided"`` or :class:`rockjax.Facade` /
+            ``"one_sided"`` (the Facade's gap [m] is the DEM's).
         n_bounces: Bounces compared.
 
     Returns:
@@ -844,6 +852,7 @@ def fit_history(
     """
     t_start = time.perf_counter()
     _check_stopping(rtol, max_iter, 1e-5, 50)
+    mode = as_mode(mode)
     problem = history_problem(block, measured, beta0, mode, n_bounces)
     block, theta0 = problem.block, float(problem.theta0)
     t = np.asarray(measured.t, float)

@@ -21,10 +21,7 @@ import numpy as np
 
 from .. import metrics
 from .._checks import (
-    GAP_HINT,
-    GAP_NEEDS_ONE_SIDED,
     check_choice,
-    check_gap,
     check_positive,
     check_scalar,
 )
@@ -33,11 +30,12 @@ from ..compilation import persistent_jit
 from ..contact import Joint
 from ..dem import simulate_dem, stable_dt
 from ..housner import simulate_housner
+from ..modes import MODE_NAMES, Mode, as_mode
 from ..relations import beta_dejong, beta_hcrit, e_isr, free_rocking_period
 from ..response import STATUS_OK, Response, e_exp
 from .result import BOUNCE_FRACTIONS, MIN_ENERGY_RATIO, hysteresis
 
-MODES = ("two_sided", "one_sided")
+MODES = MODE_NAMES
 SAVE_DT = 0.002
 """Output step of the calibration runs [s] (the peaks are refined between samples)."""
 
@@ -57,11 +55,11 @@ class CalibrationProblem(eqx.Module):
         theta0: Release rotations [rad], shape ``(n_release,)``.
         ref: Housner reference peaks, leading axis ``n_release`` (dummies for ``"bounces"``).
         targets: ``[e]`` (``kind="e"``) or the three bounce targets ``e_exp,1-3`` [-].
-        gap: Facade gap [m].
         scale: ``|d(log e)/d(beta)|`` [1/s], for ``u = scale * beta`` (1 until
             :func:`rockjax.fit_beta` measures it).
         beta_cap: ``1.25 beta_max`` [s].
-        mode: ``"two_sided"`` or ``"one_sided"`` (static, as the fields below).
+        mode: :class:`rockjax.Parapet` or :class:`rockjax.Facade` (its gap [m] traced; the
+            fields below are static).
         kind: ``"e"`` or ``"bounces"``.
         n_bounces: Bounces compared.
         duration: Length of each free-rocking run [s].
@@ -78,10 +76,9 @@ class CalibrationProblem(eqx.Module):
     theta0: jax.Array  # (n_release,)
     ref: metrics.Peaks  # Housner reference peaks, leading axis n_release (or dummies)
     targets: jax.Array  # bounce targets (target="bounces") or e (target="e")
-    gap: jax.Array
     scale: jax.Array  # S: d(log e)/d(beta) magnitude [1/s], for u = S beta
     beta_cap: jax.Array
-    mode: str = eqx.field(static=True)
+    mode: Mode  # a facade's gap traced: one compile for every gap
     kind: str = eqx.field(static=True)  # "e" or "bounces"
     n_bounces: int = eqx.field(static=True)
     duration: float = eqx.field(static=True)
@@ -99,7 +96,6 @@ def dem_run(problem: CalibrationProblem, beta, theta0=None) -> Response:
         problem.block,
         beta=beta,
         mode=problem.mode,
-        gap=problem.gap,
         theta0=problem.theta0[0] if theta0 is None else theta0,
         duration=problem.duration,
         dt=problem.dt,
@@ -276,44 +272,43 @@ def run_duration(block: Block, theta0: np.ndarray, n_bounces: int) -> float:
     return math.ceil(2.0 * DEM_PERIOD_MARGIN * (n_bounces + 2) * 0.5 * t_full) / 2.0
 
 
-def default_beta_max(block: Block, mode: str) -> float:
+def default_beta_max(block: Block, mode: Mode) -> float:
     """``2 beta_DeJong`` for parapets; ``FACADE_BETA_MAX_HCRIT beta_Hcrit`` for facades [s]."""
-    if mode == "one_sided":
+    if mode.one_sided:
         return FACADE_BETA_MAX_HCRIT * float(beta_hcrit(block))
     return 2.0 * float(beta_dejong(block))
 
 
-def default_target(mode: str) -> str:
+def default_target(mode: Mode | str) -> str:
     """The calibration target of a mode: ``"e"`` two-sided, ``"bounces"`` one-sided.
 
     A facade's one-sided Housner rocking with ``e = |e_ISR|`` keeps about 20 % of its energy per
     impact, so at most two bounces inform an ``e`` fit, and the measured facade bounces are not
     Housner's (their ``e_exp`` rises from ~68 % to ~100 % of ``|e_ISR|``,
     :data:`rockjax.calibration.BOUNCE_FRACTIONS`): the bounce targets are what a facade is
-    calibrated to.
+    calibrated to (the mode's ``default_target``, :mod:`rockjax.modes`).
     """
-    check_choice("mode", mode, MODES)
-    return "bounces" if mode == "one_sided" else "e"
+    return as_mode(mode).default_target
 
 
-def check_e_target(e, mode: str) -> float:
+def check_e_target(e, mode: Mode) -> float:
     """The target restitution ``e`` [-] of a ``target="e"`` fit as a float, checked: one finite
     number with ``0 < e <= 1`` (one-sided: ``0 < |e| <= 1``, its magnitude is used)."""
     check_scalar("e", e, "[-]", "e.g. e=rj.e_housner(block) (Eq. 2) or a measured e.")
     e_val = float(np.asarray(e, dtype=float))
-    mag = abs(e_val) if mode == "one_sided" else e_val
+    mag = mode.e_magnitude(e_val)
     if 0.0 < mag <= 1.0:
         return e_val
-    which = "0 < |e| <= 1" if mode == "one_sided" else "0 < e <= 1"
+    which = "0 < |e| <= 1" if mode.one_sided else "0 < e <= 1"
     fix = "Pass a measured restitution, e.g. e=0.9."
-    if np.isfinite(e_val) and e_val <= 0.0 and mode == "two_sided":
+    if np.isfinite(e_val) and e_val <= 0.0 and not mode.one_sided:
         fix = (
             "Housner's e_H = 1 - 1.5 sin^2(eta) (Eq. 2) is <= 0 for a block with eta >= 54.7 "
             "deg (b/h >= 1.41), which does not rock by Housner's impact rule: pass a measured "
             "restitution in (0, 1] for it, e.g. e=0.9."
         )
     raise ValueError(
-        f"e (target restitution, dimensionless) must satisfy {which} for mode={mode!r}; "
+        f"e (target restitution, dimensionless) must satisfy {which} for mode={mode.name!r}; "
         f"got e={e_val:.4g}. {fix}"
     )
 
@@ -329,11 +324,13 @@ def check_n_bounces(n_bounces, default_hint: str = "") -> int:
     return int(n_bounces)
 
 
-def housner_peaks(block, e, theta0, mode, n_bounces, duration):
+def housner_peaks(block, e, theta0, mode: Mode, n_bounces, duration):
     """``(peaks stacked over releases, responses)`` of Housner's free rocking with ``e`` from
-    each of ``theta0`` [rad], saved every :data:`SAVE_DT` over ``duration`` [s]."""
+    each of ``theta0`` [rad], saved every :data:`SAVE_DT` over ``duration`` [s] (a facade
+    flush on its walls: Housner's has no gap)."""
+    rigid = mode.without_gap()
     resps = [
-        simulate_housner(block, e=e, mode=mode, theta0=th, duration=duration, dt=SAVE_DT)
+        simulate_housner(block, e=e, mode=rigid, theta0=th, duration=duration, dt=SAVE_DT)
         for th in theta0
     ]
     ts, thetas = [r.t for r in resps], [r.theta for r in resps]
@@ -358,21 +355,20 @@ def build_problem(
     n_bounces=None,
     beta_max=None,
     joint=None,
-    gap=0.0,
+    gap=None,
 ) -> tuple[CalibrationProblem, list[Response]]:
     """:func:`problem` and the Housner reference responses it was built from (one per release;
     empty for ``target="bounces"``)."""
-    check_choice("mode", mode, MODES)
+    mode = as_mode(mode, gap)
     joint = Joint() if joint is None else joint
     if not isinstance(joint, Joint):
         raise TypeError(
             f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
         )
-    one_sided = mode == "one_sided"
-    check_gap(gap, used=one_sided, unused=GAP_NEEDS_ONE_SIDED, hint=GAP_HINT)
+    one_sided = mode.one_sided
     defaulted = target is None
     if defaulted:
-        target = default_target(mode)
+        target = mode.default_target
     check_choice("target", target, ("e", "bounces"))
     block = concrete_block(block)
     th = release(block, theta0)
@@ -451,10 +447,12 @@ def build_problem(
         ref=ref,
         targets=targets,
         dt=float(dt),
-        gap=jax.device_put(np.float64(gap)),
         scale=jnp.asarray(1.0, float),
         beta_cap=jnp.asarray(beta_cap),
-        mode=mode,
+        # a facade's gap as an array: traced, as one compile serves every gap
+        mode=mode
+        if not one_sided
+        else eqx.tree_at(lambda m: m.gap, mode, jax.device_put(np.float64(mode.gap))),
         kind=target,
         n_bounces=int(n_bounces),
         duration=duration,
@@ -471,12 +469,12 @@ def problem(
     e=None,
     *,
     target: str | None = None,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     theta0=None,
     n_bounces: int | None = None,
     beta_max: float | None = None,
     joint: Joint | None = None,
-    gap: float = 0.0,
+    gap: float | None = None,
 ) -> CalibrationProblem:
     """The calibration problem of :func:`rockjax.fit_beta`, checked and set up.
 
@@ -517,7 +515,7 @@ def _check_informative(ref: metrics.Peaks | None, e, th, mode, n_bounces):
             return
     fix = (
         "use target='bounces' (the facade default)"
-        if mode == "one_sided"
+        if mode.one_sided
         else "raise e, or calibrate to a measured e"
     )
     raise ValueError(
@@ -539,7 +537,7 @@ def _range_message(problem, g0, g1, beta_max, e_range, edge=False):
             fix = ""
         else:
             fix = ", or widen beta_max for lower e"
-        if problem.mode == "one_sided":
+        if problem.mode.one_sided:
             fix += "; or use target='bounces' (the facade default)"
         where = (
             " (beyond it the DEM keeps no bounce with "
@@ -569,7 +567,7 @@ def check_range(problem, scan, own_s, beta_max):
         own_s: The DEM's own ``log e`` at each (:func:`stats`). beta_max: [s].
     """
     e_lo, e_hi = math.exp(float(own_s[-1])), math.exp(float(own_s[0]))
-    one_sided = problem.mode == "one_sided"
+    one_sided = problem.mode.one_sided
     lost = (
         f"keeps no bounce with {100 * MIN_ENERGY_RATIO:g} % of its release energy within "
         f"{problem.n_bounces} impacts"
@@ -620,7 +618,7 @@ class EProblem(eqx.Module):
     block: Block
     theta0: jax.Array
     dem: metrics.Peaks
-    mode: str = eqx.field(static=True)
+    mode: Mode  # as Housner's rigid block takes it (no gap)
     n_bounces: int = eqx.field(static=True)
     duration: float = eqx.field(static=True)
     hysteresis: float = eqx.field(static=True)
@@ -663,7 +661,7 @@ class HistoryProblem(eqx.Module):
     measured: metrics.Peaks
     beta_ref: jax.Array
     t_scale: jax.Array
-    mode: str = eqx.field(static=True)
+    mode: Mode
     n_bounces: int = eqx.field(static=True)
     duration: float = eqx.field(static=True)
     save_dt: float = eqx.field(static=True)
@@ -703,7 +701,7 @@ def history_problem(
     block: Block,
     measured: Response,
     beta0: float | None = None,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     n_bounces: int = 8,
 ) -> HistoryProblem:
     """Checks and set-up of :func:`rockjax.fit_history` (also used to map its loss on a grid).
@@ -714,7 +712,7 @@ def history_problem(
         ValueError: a non-uniform or non-finite ``measured`` history, one with fewer than two
             impacts or no informative bounce, ``n_bounces < 1``, ``beta0 <= 0``.
     """
-    check_choice("mode", mode, MODES)
+    mode = as_mode(mode)
     check_n_bounces(n_bounces)
     block = concrete_block(block)
     if not isinstance(measured, Response):

@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from ..block import Block
+from ..modes import Mode
 from ..response import Response, impact_threshold
 
 BOUNCE_FRACTIONS = (0.68, 0.80, 1.00)
@@ -261,7 +262,7 @@ def minimum_missed(loss: float, scan_losses) -> list[str]:
 
 
 def history_peak_gap(
-    fitted: Response, measured: Response, n_compared: int, t_scale: float, mode: str
+    fitted: Response, measured: Response, n_compared: int, t_scale: float, mode: Mode | str
 ) -> float:
     """Root mean square gap of the bounce peaks of ``fitted`` against ``measured`` [-]: of the
     log-amplitude gap and of the peak-time gap over ``t_scale``, over the first ``n_compared``
@@ -272,7 +273,7 @@ def history_peak_gap(
         measured: The measured free rocking.
         n_compared: Number of bounces compared [-].
         t_scale: Time scale [s]: the loss's, the first bounce's peak time.
-        mode: ``"two_sided"`` or ``"one_sided"``.
+        mode: :class:`rockjax.Parapet` / ``"two_sided"`` or :class:`rockjax.Facade` / ``"one_sided"``.
     """
     return _peak_gap(bounce_peaks(fitted, mode), bounce_peaks(measured, mode), n_compared, t_scale)
 
@@ -287,7 +288,7 @@ def _peak_gap(fitted, measured, n_compared: int, t_scale: float) -> float:
 
 
 def history_missed(
-    fitted: Response, measured: Response, n_compared: int, t_scale: float, mode: str
+    fitted: Response, measured: Response, n_compared: int, t_scale: float, mode: Mode | str
 ) -> list[str]:
     """Why a fitted DEM history does not reproduce the measured one, in words (empty: its
     :func:`history_peak_gap` is within :data:`HISTORY_TOL`).
@@ -334,20 +335,20 @@ def verdict(stopped: bool, missed: list[str], **numbers) -> tuple[bool, str]:
 # --------------------------------------------------------------------------- NumPy peak finder
 
 
-def bounce_amplitudes(resp: Response, mode: str) -> np.ndarray:
+def bounce_amplitudes(resp: Response, mode: Mode | str) -> np.ndarray:
     """Bounce amplitudes ``|theta_k|``, ``k >= 1`` [rad], found in NumPy on the saved history
     (:func:`bounce_peaks`)."""
     return bounce_peaks(resp, mode)[1]
 
 
-def bounce_peaks(resp: Response, mode: str) -> tuple[np.ndarray, np.ndarray]:
+def bounce_peaks(resp: Response, mode: Mode | str) -> tuple[np.ndarray, np.ndarray]:
     """Bounce peak times [s] and amplitudes ``|theta_k|``, ``k >= 1`` [rad], found in NumPy on
     the saved history: :meth:`rockjax.Response.bounces` (:func:`rockjax.response.bounce_peaks`),
     the one finder of responses and calibrations."""
     return resp.bounces(mode)
 
 
-def restitution(resp: Response, n_bounces: int, mode: str) -> float:
+def restitution(resp: Response, n_bounces: int, mode: Mode | str) -> float:
     """The DEM's restitution from its own peaks, found in NumPy (:func:`bounce_amplitudes`) [-].
 
     Least squares of ``log U_k - log U_0`` on ``2k`` over the first ``n_bounces`` bounces that
@@ -366,7 +367,7 @@ def restitution(resp: Response, n_bounces: int, mode: str) -> float:
     return float(np.exp(np.sum(x * y) / np.sum(x * x)))
 
 
-def bounce_e_exp(resp: Response, mode: str) -> np.ndarray:
+def bounce_e_exp(resp: Response, mode: Mode | str) -> np.ndarray:
     """Eq. (6) of bounces 1-3 (:meth:`rockjax.Response.e_exp`) [-] (NaN for a bounce that did not
     happen)."""
     return resp.e_exp(3, mode=mode)

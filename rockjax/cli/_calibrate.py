@@ -13,6 +13,7 @@ import numpy as np
 from .. import __version__, jsonio, plot
 from ..block import Block
 from ..contact import Joint
+from ..modes import Facade, Parapet, as_mode
 from ..relations import beta_dejong, e_housner, e_isr
 from ._common import block_info, check_outputs, fmt_e, save
 from ._demo_inputs import RELEASE
@@ -118,16 +119,19 @@ def add_calibrate_parser(sub) -> None:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from ..calibration import BOUNCE_BANDS, BOUNCE_FRACTIONS, default_target, fit_beta
+    from ..calibration import BOUNCE_BANDS, BOUNCE_FRACTIONS, fit_beta
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} exists and is not a folder; give a folder path.")
     check_outputs("--out", [out / name for name in CALIBRATE_FILES])  # before the fit
-    mode = args.mode or ("one_sided" if args.target == "bounces" else "two_sided")
-    target = args.target or ("e" if args.loss == "history" else default_target(mode))
+    if args.mode is not None:
+        mode = as_mode(args.mode)
+    else:  # the mode whose default target is --target's
+        mode = Facade() if args.target == Facade.default_target else Parapet()
+    target = args.target or ("e" if args.loss == "history" else mode.default_target)
     if target == "bounces":
-        if mode != "one_sided":
+        if not mode.one_sided:
             raise ValueError(
                 "--target bounces is the facade calibration; it needs --mode one_sided "
                 "(or use --target e for a parapet)."
@@ -161,10 +165,10 @@ def _calibrate(args: argparse.Namespace) -> int:
     b_dj = float(beta_dejong(block))
     e = None
     if target == "e":
-        e = args.e if args.e is not None else (e_h if mode == "two_sided" else e_1sr)
+        e = args.e if args.e is not None else mode.e_magnitude(float(mode.default_e(block)))
         if args.e is None and not e > 0.0:
             # Eq. 2 (or 5) leaves its range for squat blocks: e_H < 0 is no restitution
-            which = "e_H (Eq. 2)" if mode == "two_sided" else "|e_1SR| (Eq. 5)"
+            which = "|e_1SR| (Eq. 5)" if mode.one_sided else "e_H (Eq. 2)"
             raise ValueError(
                 f"the default target {which} = {e:.3g} is not a restitution coefficient for "
                 f"this squat block ({args.b:g} x {args.h:g} m, h/b = {args.h / args.b:.3g}): the "
@@ -172,14 +176,14 @@ def _calibrate(args: argparse.Namespace) -> int:
                 "--e 0.9."
             )
     if e is not None:
-        default = {"two_sided": " (default: e_H, Eq. 2)", "one_sided": " (default: |e_1SR|, Eq. 5)"}
-        goal = f"e = {e:.4f}" + (default[mode] if args.e is None else "")
+        default = " (default: |e_1SR|, Eq. 5)" if mode.one_sided else " (default: e_H, Eq. 2)"
+        goal = f"e = {e:.4f}" + (default if args.e is None else "")
     else:
         values = " / ".join(f"{f * e_1sr:.4f}" for f in BOUNCE_FRACTIONS)
         percents = "/".join(f"{100 * f:g}" for f in BOUNCE_FRACTIONS)
         goal = f"bounces 1-3: e_exp = {values} ({percents} % of |e_1SR| = {e_1sr:.4f})"
     print(
-        f"rockjax {__version__} calibrate: block {args.b:g} x {args.h:g} m ({mode}), eta = "
+        f"rockjax {__version__} calibrate: block {args.b:g} x {args.h:g} m ({mode.name}), eta = "
         f"{eta:.4f} rad, beta_DeJong = {b_dj:.4g} s; release {args.theta0:g} eta; "
         f"method {args.method} -> {out}/",
         flush=True,
@@ -226,7 +230,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     axes = plot.calibration(fit)
     axes[0].set_title(
-        f"{args.b:g} x {args.h:g} m {mode.replace('_', '-')} block, release "
+        f"{args.b:g} x {args.h:g} m {mode.name.replace('_', '-')} block, release "
         f"{args.theta0:g} eta: beta = {fit.beta:.4g} s"
     )
     png = save(axes[0], out / "calibration.png")
@@ -234,7 +238,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         "rockjax_version": __version__,
         "command": "rockjax " + " ".join(_calibrate_argv(args)),
         "block": block_info(block) | {"e_H": e_h, "e_1sr": e_1sr, "beta_dejong_s": b_dj},
-        "mode": mode,
+        "mode": mode.name,
         "target": target,
         "theta0_over_eta": args.theta0,
         "e_target": fit.e,

@@ -15,7 +15,8 @@ import numpy as np
 from .. import __version__, jsonio, plot
 from ..block import Block
 from ..constants import G
-from ..relations import beta_dejong, e_housner, e_isr
+from ..modes import MODE_NAMES, as_mode
+from ..relations import beta_dejong
 from ..response import STATUS_MESSAGES
 from ._common import check_outputs, save
 from ._demo_inputs import PARAPET_B, PARAPET_H
@@ -56,7 +57,7 @@ def add_ida_parser(sub) -> None:
     p.add_argument("--model", choices=("dem", "housner"), default="dem", help="(default: dem)")
     p.add_argument(
         "--mode",
-        choices=("two_sided", "one_sided"),
+        choices=MODE_NAMES,
         default="two_sided",
         help="two_sided: parapet; one_sided: facade (default: two_sided)",
     )
@@ -234,6 +235,7 @@ def _ida(args: argparse.Namespace) -> int:
     check_outputs("--out", list(files.values()))
     scales = _parse_scales(args.scales)
     block = Block(b=args.b, h=args.h)  # raises ValueError on bad geometry
+    mode = as_mode(args.mode)  # its facts for the messages; rj.ida converts --mode --gap
     # checked here too (rj.ida checks them all) so the error comes before the records load
     if args.model == "housner" and args.beta is not None:
         raise ValueError(
@@ -251,9 +253,9 @@ def _ida(args: argparse.Namespace) -> int:
             "--e 0.9, or leave it out for the paper's default."
         )
     if args.model == "housner" and args.e is None:
-        e_default = float(e_isr(block) if args.mode == "one_sided" else e_housner(block))
-        if not 0.0 < (abs(e_default) if args.mode == "one_sided" else e_default) <= 1.0:
-            which = "e_H (Eq. 2)" if args.mode == "two_sided" else "e_1SR (Eq. 5)"
+        e_default = float(mode.default_e(block))
+        if not 0.0 < mode.e_magnitude(e_default) <= 1.0:
+            which = "e_1SR (Eq. 5)" if mode.one_sided else "e_H (Eq. 2)"
             raise ValueError(
                 f"the default restitution {which} = {e_default:.3g} is not a restitution "
                 f"coefficient for this block ({args.b:g} x {args.h:g} m, h/b = "
@@ -275,14 +277,14 @@ def _ida(args: argparse.Namespace) -> int:
             else ""
         )
     elif args.e is None:
-        e_default = e_isr(block) if args.mode == "one_sided" else e_housner(block)
-        eq = "|Eq. 5|" if args.mode == "one_sided" else "Eq. 2"
+        e_default = mode.default_e(block)
+        eq = "|Eq. 5|" if mode.one_sided else "Eq. 2"
         param = f"e = {abs(float(e_default)):.4g} ({eq}, the default)"
     else:
         param = f"e = {args.e:g}"
     print(
         f"rockjax {__version__} ida: block {args.b:g} x {args.h:g} m, {args.model} "
-        f"{args.mode} ({param}); {len(motions)} records x {scales.size} scales "
+        f"{mode.name} ({param}); {len(motions)} records x {scales.size} scales "
         f"({scales[0]:g} to {scales[-1]:g}) = {n_runs} runs -> {out}",
         flush=True,
     )
@@ -292,13 +294,13 @@ def _ida(args: argparse.Namespace) -> int:
         )
     else:
         short = param
-    title = f"{args.model} {args.mode.replace('_', '-')}, block {args.b:g} x {args.h:g} m, {short}"
+    title = f"{args.model} {mode.name.replace('_', '-')}, block {args.b:g} x {args.h:g} m, {short}"
     ds = ida(
         block,
         motions,
         scales,
         model=args.model,
-        mode=args.mode,
+        mode=args.mode,  # with --gap: converted (and the gap checked) by rj.ida
         beta=beta,
         e=args.e,
         gap=args.gap,

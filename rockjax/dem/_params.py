@@ -11,10 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._checks import (
-    GAP_HINT,
     GAP_NEEDS_ONE_SIDED,
-    check_choice,
-    check_gap,
     check_kind,
     check_nonnegative,
     check_scalar,
@@ -24,14 +21,15 @@ from ..assembly import ASSEMBLY_GAP_UNUSED, Assembly
 from ..block import Block
 from ..compilation import persistent_jit
 from ..contact import Joint
+from ..modes import MODE_NAMES, Facade, Mode, Parapet, as_mode
 
-MODES = ("two_sided", "one_sided")
+MODES = MODE_NAMES
 
 DT_SAFETY = 0.5
 """Largest fraction of the explicit stability limit a default step may take."""
 
-DT_ACCURACY = {"two_sided": 1.0, "one_sided": 0.35}
-"""Default ``accuracy`` per mode for the integrated face law (``n_sub="exact"``): the step is
+DT_ACCURACY = {m.name: m.dt_accuracy for m in (Parapet, Facade)}
+"""Default ``accuracy`` per mode (each mode's ``dt_accuracy``, :mod:`rockjax.modes`) for the integrated face law (``n_sub="exact"``): the step is
 ``accuracy / (omega_max (1 + zeta))`` [s]. With these the first-impact restitution of parapets
 with h/b 4-24 at beta up to 1.5 beta_DeJong is within 1e-3 of its dt -> 0 limit (measured
 4.6e-4), and the rebound peaks of damped facades above 1 % of eta within 2 % of a 16x finer
@@ -40,8 +38,8 @@ step (measured 1.8 %; undamped, bounces 1-2 within 0.5 %, while a third undamped
 convergence"). Facades need the finer step for their later, small bounces (at 0.7: bounce 2
 of 0.11 x 2.4 m undamped 2.7 % off, of 0.2 x 1.5 m at beta_Hcrit 4 %)."""
 
-DT_ACCURACY_SUB = {"two_sided": 0.5, "one_sided": 0.35}
-"""Default ``accuracy`` per mode with integer ``n_sub`` (point sub-contacts: a point's force
+DT_ACCURACY_SUB = {m.name: m.dt_accuracy_sub for m in (Parapet, Facade)}
+"""Default ``accuracy`` per mode with integer ``n_sub`` (each mode's ``dt_accuracy_sub``) (point sub-contacts: a point's force
 switches on whole as it closes, so parapets need half the face law's step)."""
 
 
@@ -136,17 +134,12 @@ def as_assembly(body: Block | Assembly) -> Assembly:
     return Assembly.stack([body]) if isinstance(body, Block) else body
 
 
-def default_phi_deg(mode: str) -> float:
-    """The paper's friction angle [deg]: 50 for parapets, 30 for facades."""
-    return 50.0 if mode == "two_sided" else 30.0
-
-
 def dem_params(
     body: Block | Assembly,
     beta=0.0,
     *,
-    mode: str = "two_sided",
-    gap=0.0,
+    mode: Mode | str = "two_sided",
+    gap=None,
     joint: Joint = Joint(),
     phi_deg=None,
 ) -> DemParams:
@@ -155,19 +148,20 @@ def dem_params(
     Args:
         body: A :class:`rockjax.Block` (an assembly of one) or a :class:`rockjax.Assembly`.
         beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1).
-        mode: ``"two_sided"``, or ``"one_sided"``: a facade, every block's back face (-x)
-            against a return wall ``gap`` behind it.
-        gap: Distance between the back faces and the return wall at rest [m] (one-sided).
+        mode: :class:`rockjax.Parapet` (``"two_sided"``), or :class:`rockjax.Facade`
+            (``"one_sided"``): every block's back face (-x) against a return wall its ``gap``
+            behind it (:func:`rockjax.as_mode`).
+        gap: With ``mode="one_sided"``: the distance between the back faces and the return
+            wall at rest [m]; default None (0, or the Facade's own).
         joint: The joint of every interface (:class:`rockjax.Joint`).
-        phi_deg: Friction angle of every interface [deg]; default :func:`default_phi_deg`.
+        phi_deg: Friction angle of every interface [deg]; default the mode's ``phi_deg``
+            (the paper's 50 for parapets, 30 for facades).
     """
-    check_choice("mode", mode, MODES)
-    unused = ASSEMBLY_GAP_UNUSED if isinstance(body, Assembly) else GAP_NEEDS_ONE_SIDED
-    check_gap(gap, used=mode == "one_sided", unused=unused, hint=GAP_HINT)
+    mode = mode_of(body, mode, gap)
     assembly = as_assembly(body)
     check_joint(joint)
     if phi_deg is None:
-        phi_deg = default_phi_deg(mode)
+        phi_deg = mode.phi_deg
     check_nonnegative(
         "beta", beta, "s", "beta is the stiffness-proportional Rayleigh coefficient.", scalar=True
     )
@@ -175,12 +169,21 @@ def dem_params(
     phi = concrete(phi_deg)
     if phi is not None and not (0.0 < phi < 90.0):
         raise ValueError(f"phi_deg (friction angle, degrees) must be in (0, 90); got {phi_deg}.")
-    return build_params(assembly, beta, gap, phi_deg, mode=mode, joint=joint)
+    return build_params(assembly, beta, mode.gap, phi_deg, one_sided=mode.one_sided, joint=joint)
+
+
+def mode_of(body: Block | Assembly, mode, gap=None) -> Mode:
+    """:func:`rockjax.as_mode` of a DEM entry point: a gap given to a parapet assembly names
+    the assembly's own restraint clearance as the fix."""
+    unused = ASSEMBLY_GAP_UNUSED if isinstance(body, Assembly) else GAP_NEEDS_ONE_SIDED
+    return as_mode(mode, gap, unused=unused)
 
 
 # Compiled: one call instead of ~40 eager operations (~1 ms a call).
-@jax.jit(static_argnames=("mode", "joint"))
-def build_params(assembly: Assembly, beta, gap, phi_deg, *, mode: str, joint: Joint) -> DemParams:
+@jax.jit(static_argnames=("one_sided", "joint"))
+def build_params(
+    assembly: Assembly, beta, gap, phi_deg, *, one_sided: bool, joint: Joint
+) -> DemParams:
     """:func:`dem_params` without its checks."""
     blocks = assembly.blocks
 
@@ -236,7 +239,7 @@ def build_params(assembly: Assembly, beta, gap, phi_deg, *, mode: str, joint: Jo
         onset=joint.onset,
         shear_release=joint.shear_release,
         restrained=assembly.top == "restrained",
-        one_sided=mode == "one_sided",
+        one_sided=one_sided,
         links=links,
         row=assembly.layout == "row",
     )
@@ -353,9 +356,9 @@ def steps_compiled(p: DemParams, accuracy):
     return _steps_program(p, np.float64(accuracy))
 
 
-def check_accuracy(accuracy, mode: str, joint: Joint) -> float:
+def check_accuracy(accuracy, mode: Mode, joint: Joint) -> float:
     """``accuracy`` checked, or the default for the ``mode`` and ``joint``."""
-    default = (DT_ACCURACY if joint.face else DT_ACCURACY_SUB)[mode]
+    default = mode.dt_accuracy if joint.face else mode.dt_accuracy_sub
     if accuracy is None:
         return default
     if not (isinstance(accuracy, (int, float)) and np.isfinite(accuracy) and accuracy > 0):

@@ -14,6 +14,7 @@ from ..assembly import Assembly
 from ..block import Block
 from ..compilation import is_batched, is_traced, notice_once, pad_to
 from ..contact import Joint
+from ..modes import Mode
 from ..motion import GroundMotion
 from ..response import STATUS_BAD_INPUT, STATUS_OK, Response
 from ..supports import resolve_supports
@@ -21,6 +22,7 @@ from ._params import (
     as_assembly,
     check_accuracy,
     dem_params,
+    mode_of,
     steps_compiled,
 )
 from ._response import AssemblyResponse, cut, cut_block
@@ -38,8 +40,8 @@ def simulate_dem(
     motion: GroundMotion | None = None,
     *,
     beta=0.0,
-    mode: str = "two_sided",
-    gap=0.0,
+    mode: Mode | str = "two_sided",
+    gap=None,
     theta0=0.0,
     duration: float | None = None,
     dt: float | None = None,
@@ -80,8 +82,10 @@ def simulate_dem(
             ``mode="one_sided"`` puts every block's back face on a return wall).
         motion: Ground motion; ``None`` for free rocking (then ``duration`` is required).
         beta: Stiffness-proportional Rayleigh damping coefficient [s], Eq. (1), alpha = 0.
-        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade with a return wall at -x).
-        gap: Facade gap between the back face and the return wall [m] (one-sided only).
+        mode: :class:`rockjax.Parapet` (``"two_sided"``) or :class:`rockjax.Facade`
+            (``"one_sided"``: a return wall at -x, its ``gap`` behind the back face).
+        gap: With ``mode="one_sided"``: the facade's gap between the back face and the
+            return wall [m]; default None (0, or the Facade's own; :func:`rockjax.as_mode`).
         theta0: Initial rotation [rad], released from rest on its pivot corner; ``|theta0| <
             eta`` (of the whole stack about block 0's corner); a restrained two-block wall is
             released in its hinge mechanism; ``theta0 >= 0`` one-sided.
@@ -91,8 +95,8 @@ def simulate_dem(
             The step used is the largest divisor of the output step not above ``dt``. A step
             above the stability limit is refused.
         accuracy: Accuracy of the default step, ``omega_max dt (1 + zeta)`` [-] (ignored when
-            ``dt`` is given); default ``DT_ACCURACY[mode]`` (``DT_ACCURACY_SUB`` with integer
-            ``n_sub``), which puts the first-impact ``e`` within 1e-3 of its converged value
+            ``dt`` is given); default the mode's ``dt_accuracy`` (``dt_accuracy_sub`` with
+            integer ``n_sub``; :data:`DT_ACCURACY`), which puts the first-impact ``e`` within 1e-3 of its converged value
             (docs/verification.md). Smaller is finer.
         joint: The contact joint of every interface, :class:`rockjax.Joint`: by default the
             contact law integrated in closed form over each face (the ``n_sub -> infinity``
@@ -144,12 +148,13 @@ def simulate_dem(
             "rj.Assembly.stack([block])."
         )
     save = check_save(save)
-    p = dem_params(block, beta, mode=mode, gap=gap, joint=joint, phi_deg=phi_deg)
+    mode = mode_of(block, mode, gap)
+    p = dem_params(block, beta, mode=mode, joint=joint, phi_deg=phi_deg)
     check_theta0(theta0, assembly, mode)
-    if wall_motion is not None and mode != "one_sided":
+    if wall_motion is not None and not mode.one_sided:
         raise ValueError(
             f"wall_motion (a moving return wall) needs mode='one_sided' (a facade against its "
-            f"return wall); got mode={mode!r}. Pass mode='one_sided', or drop wall_motion."
+            f"return wall); got mode={mode.name!r}. Pass mode='one_sided', or drop wall_motion."
         )
     ag, ag_v, dt_out = prepare_motion(motion, duration, save_dt)
     supports = resolve_supports(
@@ -168,7 +173,7 @@ def simulate_dem(
         one = not is_batched(p, st0, ag, ag_v, top, wall, step)
         args = (save, throw, top, wall)
         return program(p, st0, ag, ag_v, step, dt_out, n_in, *args, one_history=one)
-    resp = run_padded(program, p, st0, ag, ag_v, step, dt_out, n_in, save, top, wall, mode)
+    resp = run_padded(program, p, st0, ag, ag_v, step, dt_out, n_in, save, top, wall, mode.name)
     if throw:
         raise_on_failure(int(resp.status))
     return (cut_block if single else cut)(resp, ag.shape[0])
@@ -304,8 +309,8 @@ def stable_dt(
     block: Block | Assembly,
     beta=0.0,
     *,
-    mode: str = "two_sided",
-    gap=0.0,
+    mode: Mode | str = "two_sided",
+    gap=None,
     joint: Joint = Joint(),
     accuracy: float | None = None,
 ) -> float:
@@ -323,16 +328,18 @@ def stable_dt(
     Args:
         block: The block, or an :class:`rockjax.Assembly`.
         beta: Stiffness-proportional damping coefficient [s], Eq. (1).
-        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade).
-        gap: Facade gap [m] (does not change the step).
+        mode: :class:`rockjax.Parapet` (``"two_sided"``) or :class:`rockjax.Facade`
+            (``"one_sided"``).
+        gap: With ``mode="one_sided"``: the facade's gap [m] (does not change the step).
         joint: The contact joint (:class:`rockjax.Joint`; default the integrated face law).
-        accuracy: ``omega_max dt (1 + zeta)`` [-]; default ``DT_ACCURACY[mode]`` (1.0 for
+        accuracy: ``omega_max dt (1 + zeta)`` [-]; default the mode's ``dt_accuracy`` (1.0 for
             parapets, 0.35 for facades; 0.5 for parapets with integer ``n_sub``: first-impact
             ``e`` within 1e-3 of its converged value, facade rebound peaks within 2 %;
             docs/verification.md). Smaller is finer; values above ``2 DT_SAFETY / (1 + zeta)``
             give the stability-based step.
     """
-    p = dem_params(block, beta, mode=mode, gap=gap, joint=joint)
+    mode = mode_of(block, mode, gap)
+    p = dem_params(block, beta, mode=mode, joint=joint)
     return float(steps_compiled(p, check_accuracy(accuracy, mode, joint))[1])
 
 
@@ -342,7 +349,7 @@ def stable_dt_assembly(
     *,
     joint: Joint = Joint(),
     accuracy: float | None = None,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
 ) -> float:
     """:func:`stable_dt` of an :class:`rockjax.Assembly`; kept for the name."""
     return stable_dt(assembly, beta, mode=mode, joint=joint, accuracy=accuracy)

@@ -14,6 +14,7 @@ from .._checks import check_scalar, concrete
 from ..assembly import Assembly
 from ..block import Block
 from ..constants import G
+from ..modes import Mode, Parapet
 from ._params import DemParams, DemState
 
 
@@ -222,10 +223,10 @@ def carrying(blk: Block, weight) -> Block:
     )
 
 
-def check_theta0(theta0, assembly: Assembly, mode: str = "two_sided"):
+def check_theta0(theta0, assembly: Assembly, mode: Mode = Parapet()):
     check_scalar("theta0", theta0, "rad", "e.g. theta0=0.01.")
     th = concrete(theta0)
-    if assembly.layout == "row" and mode == "one_sided":
+    if assembly.layout == "row" and mode.one_sided:
         raise ValueError(
             "mode='one_sided' puts every block's back face on a return wall, which a row of "
             "blocks side by side does not have (only its first block's back face would meet "
@@ -240,7 +241,7 @@ def check_theta0(theta0, assembly: Assembly, mode: str = "two_sided"):
             "ground); leave theta0=0 and set it rocking with a ground motion, e.g. "
             "rj.GroundMotion.ricker(...)."
         )
-    if mode == "one_sided" and th < 0:
+    if mode.one_sided and th < 0:
         raise ValueError(
             f"theta0={float(th):.4g} rad: a facade (mode='one_sided') leans on its return walls "
             "at -x and can only rotate outward, theta0 >= 0."

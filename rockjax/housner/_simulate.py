@@ -26,7 +26,9 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from .._checks import (
-    check_choice,
+    GAP_HINT,
+    HOUSNER_GAP_UNUSED,
+    check_gap,
     check_kind,
     check_positive,
     check_samples,
@@ -36,8 +38,8 @@ from .._checks import (
 from .._lazy import lazy_module
 from ..block import Block
 from ..compilation import bucket_length, is_traced, notice_once, pad_to
+from ..modes import MODE_NAMES, Mode, as_mode
 from ..motion import GroundMotion
-from ..relations import e_housner, e_isr
 from ..response import STATUS_BAD_INPUT, STATUS_OK, Response
 from ..three_branch import ThreeBranchFit, ThreeBranchLaw
 from ._diffrax import default_controller, solve_events
@@ -50,7 +52,7 @@ from ._wall import pad_wall, wall_series
 diffrax = lazy_module("diffrax")
 
 
-MODES = ("two_sided", "one_sided")
+MODES = MODE_NAMES
 
 
 DEFAULT_DT = 0.005
@@ -67,7 +69,7 @@ def simulate_housner(
     motion: GroundMotion | None = None,
     *,
     e: Float[ArrayLike, ""] | None = None,
-    mode: str = "two_sided",
+    mode: Mode | str = "two_sided",
     theta0: Float[ArrayLike, ""] = 0.0,
     theta_dot0: Float[ArrayLike, ""] = 0.0,
     duration: float | None = None,
@@ -96,7 +98,8 @@ def simulate_housner(
             (then ``duration`` is required).
         e: Coefficient of restitution [-]: two-sided ``0 < e <= 1`` (default ``e_H``, Eq. (2));
             one-sided ``0 < |e| <= 1``, its magnitude is used (default ``|e_1sr|``, Eq. (5)).
-        mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade, ``theta >= 0``).
+        mode: :class:`rockjax.Parapet` (``"two_sided"``) or :class:`rockjax.Facade`
+            (``"one_sided"``, ``theta >= 0``; flush on its return walls: a gap is refused).
         theta0: Initial rotation [rad], ``|theta0| < eta`` (``>= 0`` one-sided).
         theta_dot0: Initial angular velocity [rad/s]. A start faster than
             ``(2 pi + |theta0|) / (|e| dt_step)`` (``dt_step`` the solver's step), which
@@ -173,7 +176,7 @@ def simulate_housner(
     References:
         Housner, G. W. (1963), BSSA 53(2):403-417. The paper, Eqs. (2) and (5).
     """
-    one_sided, law = _check_arguments(
+    mode, law = _check_arguments(
         block,
         motion,
         e,
@@ -201,10 +204,11 @@ def simulate_housner(
             )
         wall = wall_series(wall_motion, motion, block, n_out)
 
+    one_sided = mode.one_sided
     default_e = e is None
     if default_e:
-        e = e_isr(block.eta) if one_sided else e_housner(block.eta)
-    check_restitution(e, one_sided, default=default_e)
+        e = mode.default_e(block.eta)
+    check_restitution(e, mode, default=default_e)
     # Compile once per bucket: with nothing traced the record is padded (its last sample
     # repeated, which the solver's evaluation beyond the end already holds) and its length
     # passed as data. Under the caller's jit/vmap/grad their transform fixes the shapes.
@@ -233,7 +237,7 @@ def simulate_housner(
         block,
         pad_to(ag, n_pad),
         None if ag_v is None else pad_to(ag_v, n_pad),
-        jnp.abs(e) if one_sided else e,
+        mode.e_magnitude(e),
         jnp.asarray(theta0, dtype=float),
         jnp.asarray(theta_dot0, dtype=float),
         jnp.asarray(dt_out, dtype=float),
@@ -263,8 +267,8 @@ def _check_arguments(
     block, motion, e, mode, theta0, theta_dot0, duration, dt, max_impacts_per_step, law, wall_motion
 ):
     """The boundary checks of :func:`simulate_housner`'s concrete arguments (``ValueError``
-    naming the argument, its unit and the fix). Returns ``(one_sided, law)``, a
-    ``ThreeBranchFit`` replaced by its law."""
+    naming the argument, its unit and the fix). Returns ``(mode, law)``: the mode object
+    (:func:`rockjax.as_mode`), a ``ThreeBranchFit`` replaced by its law."""
     check_kind(
         "block",
         block,
@@ -272,8 +276,9 @@ def _check_arguments(
         "simulate_housner rocks one rigid block, e.g. rj.Block(b=0.25, h=3.0); run a wall of "
         "blocks (an rj.Assembly) with rj.simulate_dem or rj.simulate_assembly.",
     )
-    check_choice("mode", mode, MODES)
-    one_sided = mode == "one_sided"
+    mode = as_mode(mode)
+    check_gap(mode.gap, used=False, unused=HOUSNER_GAP_UNUSED, hint=GAP_HINT)
+    one_sided = mode.one_sided
     if motion is not None and not isinstance(motion, GroundMotion):
         raise ValueError(
             f"motion must be a rockjax GroundMotion (or None for free rocking); got a "
@@ -308,14 +313,14 @@ def _check_arguments(
         if not one_sided:
             raise ValueError(
                 f"wall_motion needs mode='one_sided' (a facade against its return walls); got "
-                f"mode={mode!r}. Drop wall_motion for a parapet."
+                f"mode={mode.name!r}. Drop wall_motion for a parapet."
             )
         if motion is None:
             raise ValueError(
                 "wall_motion needs the ground motion it is relative to: pass motion=GroundMotion "
                 "(free rocking against a moving wall is not supported)."
             )
-    return one_sided, law
+    return mode, law
 
 
 def _record_arrays(motion, duration, dt):
@@ -465,16 +470,17 @@ def _fit(a, n: int):
     return v[:n] if v.shape[0] >= n else np.pad(v, (0, n - v.shape[0]))
 
 
-def check_restitution(e, one_sided: bool, default: bool) -> None:
+def check_restitution(e, mode: Mode, default: bool) -> None:
     """Refuse a concrete restitution ``e`` [-] outside (0, 1] (one-sided: its magnitude), naming
     the paper's default (Eq. 2, Eq. 5) when ``default`` (it leaves that range for squat blocks).
     A traced ``e`` is checked in-graph by the solver."""
     v = concrete(e)
     if v is None:
         return
-    mag = np.abs(v) if one_sided else v
+    mag = mode.e_magnitude(v)
     if np.all(np.isfinite(v)) and np.all(mag > 0) and np.all(mag <= 1):
         return
+    one_sided = mode.one_sided
     if default:
         eq = "Eq. (5) e_1sr" if one_sided else "Eq. (2) e_H"
         raise ValueError(
