@@ -150,12 +150,28 @@ def enable_cache(directory: str | os.PathLike | None = None) -> Path | None:
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        _notice(f"rockjax: no compilation cache ({err}); set {CACHE_ENV} to a writable folder.")
+        notice(f"rockjax: no compilation cache ({err}); set {CACHE_ENV} to a writable folder.")
         return None
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", CACHE_MIN_COMPILE_S)
     _EXPORT["cache"] = path
     return path
+
+
+def use_default_cache() -> None:
+    """Turn the persistent cache on in :func:`cache_dir` the first time rockjax compiles in
+    this process (the Python API's default; the command line turns it on at startup). A cache
+    already chosen is left alone: by :func:`enable_cache`, or a folder set for JAX itself
+    (``JAX_COMPILATION_CACHE_DIR``, ``jax.config``) while ``$ROCKJAX_CACHE_DIR`` is unset;
+    ``ROCKJAX_CACHE_DIR=off`` keeps it off. Costs one dictionary look-up after the first call."""
+    if _EXPORT["default"]:
+        return
+    _EXPORT["default"] = True
+    if _EXPORT["cache"] is not None:
+        return
+    if os.environ.get(CACHE_ENV) is None and jax.config.jax_compilation_cache_dir:
+        return
+    enable_cache()
 
 
 def notice_once(key: Hashable, message: str) -> bool:
@@ -167,17 +183,33 @@ def notice_once(key: Hashable, message: str) -> bool:
     if key in _NOTICED:
         return False
     _NOTICED.add(key)
-    _notice(message)
+    notice(message)
     return True
 
 
-def _notice(message: str) -> None:
+def notice(message: str) -> None:
+    """Say ``message`` (one line): through the ``rockjax`` logger when logging is configured,
+    else on stderr; nothing when that logger is silenced (level above INFO)."""
     if _LOG.level > logging.INFO:
         return  # silenced
     if _LOG.hasHandlers():
         _LOG.info(message)
     else:
         print(message, file=sys.stderr, flush=True)
+
+
+def strong_scalars(tree):
+    """``tree`` with its Python and NumPy real numbers as float64 NumPy scalars (arrays and
+    tracers unchanged). JAX types a Python ``float`` weakly and a NumPy ``float64`` strongly,
+    and compiles a program once for each: a loop over ``beta = 0.001`` then over
+    ``np.linspace(...)`` values would compile it twice. Bools are left alone."""
+
+    def strong(x):
+        if isinstance(x, (float, int, np.floating, np.integer)) and not isinstance(x, bool):
+            return np.asarray(x, dtype=float)
+        return x
+
+    return jax.tree.map(strong, tree)
 
 
 def is_traced(*xs) -> bool:
@@ -213,7 +245,7 @@ EXPORT_SUBDIR = "exported"
 """Folder, inside the persistent cache, of the traced and lowered programs that
 :func:`persistent_jit` keeps (``jax.export`` artifacts)."""
 
-_EXPORT: dict[str, Path | None] = {"cache": None}  # the folder enable_cache last set
+_EXPORT: dict = {"cache": None, "default": False}  # enable_cache's last folder; default tried
 _LIBRARIES = (
     "rockjax",
     "jax",
@@ -369,16 +401,40 @@ def persistent_jit(fn):
     plain = object()
     sources: collections.Counter = collections.Counter()
 
-    def export(args, kwargs, dynamic, static, avals):
+    seen: set = set()  # the plain calls' signatures (filter_jit's own cache keeps them)
+
+    def kept_path(args, kwargs) -> Path | None:
+        """Where the call's program is kept, or None when it cannot be kept."""
         folder = _export_dir()
-        if not keyed:
-            return plain
+        if not keyed or folder is None:
+            return None
         try:
             text = "|".join((_environment(), name, _describe((args, kwargs))))
         except (_Unkeyed, RecursionError):
-            return plain
+            return None
         key = hashlib.sha256(text.encode()).hexdigest()[:40]
-        path = folder / f"{fn.__name__}-{key}.jaxexp"
+        return folder / f"{fn.__name__}-{key}.jaxexp"
+
+    def signature(args, kwargs):
+        """``(dynamic, static, leaves, avals, memo)`` of a concrete call (``memo`` keys the
+        programs in memory), or None for a call inside a transform."""
+        dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
+        leaves, treedef = jax.tree.flatten(dynamic)
+        if is_traced(leaves):
+            return None
+        s_leaves, s_def = jax.tree.flatten(static)
+        avals = tuple(
+            (np.shape(x), np.dtype(x.dtype), bool(getattr(x, "weak_type", False))) for x in leaves
+        )
+        memo = (treedef, s_def, tuple(s_leaves), avals, _export_dir())
+        hash(memo)  # TypeError: an unhashable static argument
+        return dynamic, static, leaves, avals, memo
+
+    def export(args, kwargs, dynamic, static, avals):
+        path = kept_path(args, kwargs)
+        if path is None:
+            return plain
+        folder = path.parent
         if path.is_file():
             try:
                 blob = pickle.loads(path.read_bytes())
@@ -418,26 +474,43 @@ def persistent_jit(fn):
             pass  # a read-only cache: this process keeps it in memory
         return jax.jit(exported.call), skeleton["out"]
 
+    def will_compile(*args, **kwargs) -> bool:
+        """Whether a call with these arguments compiles a new program: one this process has
+        not run (nor traced), and not kept on disk. False inside a transform (the caller's
+        program compiles it)."""
+        try:
+            sig = signature(args, kwargs)
+        except TypeError:
+            return True
+        if sig is None:
+            return False
+        if not _EXPORT["default"]:
+            use_default_cache()
+            sig = signature(args, kwargs)
+        memo = sig[-1]
+        if memo in seen or programs.get(memo) not in (None, plain):
+            return False
+        path = kept_path(args, kwargs)
+        return path is None or not path.is_file()
+
     @functools.wraps(fn)
     def call(*args, **kwargs):
+        try:
+            sig = signature(args, kwargs)
+        except TypeError:  # an unhashable static argument (filter_jit says so), a key array
+            sig = None
+        if sig is not None and not _EXPORT["default"]:  # the first eager call: the cache on
+            use_default_cache()
+            sig = signature(args, kwargs)  # its memo names the kept programs' folder
+        if sig is not None:
+            seen.add(sig[-1])
         if _export_dir() is None:
             return jitted(*args, **kwargs)
-        dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
-        leaves, treedef = jax.tree.flatten(dynamic)
-        if is_traced(leaves):
+        if sig is None:
             sources["plain"] += 1
             return jitted(*args, **kwargs)
-        s_leaves, s_def = jax.tree.flatten(static)
-        try:
-            avals = tuple(
-                (np.shape(x), np.dtype(x.dtype), bool(getattr(x, "weak_type", False)))
-                for x in leaves
-            )
-            memo = (treedef, s_def, tuple(s_leaves), avals, _export_dir())
-            entry = programs.get(memo)
-        except TypeError:  # an unhashable static argument (filter_jit says so), a key array
-            sources["plain"] += 1
-            return jitted(*args, **kwargs)
+        dynamic, static, leaves, avals, memo = sig
+        entry = programs.get(memo)
         if entry is None:
             entry = programs[memo] = export(args, kwargs, dynamic, static, avals)
         if entry is plain:
@@ -450,4 +523,5 @@ def persistent_jit(fn):
         return jax.tree.map(lambda s: out[s.index] if isinstance(s, _Slot) else s, skeleton)
 
     call.sources = sources
+    call.will_compile = will_compile
     return call

@@ -412,17 +412,44 @@ def test_dem_traced_records_are_not_padded(parapet):
 
 
 def test_a_compiling_dem_call_says_so_once(parapet, caplog):
+    # Reference: a count of XLA compilations. The notice comes with the one call that
+    # compiles, and says what it compiles; another record, beta or time step of the same kind
+    # runs that program, silently.
     kw = dict(save=("forces", "energy"))  # a configuration that no other test compiles
-    with caplog.at_level(logging.INFO, logger="rockjax"):
+    with caplog.at_level(logging.INFO, logger="rockjax"), count_compiles() as compiles:
         r1 = rj.simulate_dem(parapet, _dem_pulse(200), **kw)
-        r2 = rj.simulate_dem(parapet, _dem_pulse(260), **kw)
-    n_in = round(DEM_DT / float(r1.extras["dt"]))
+        n_first = len(compiles)
+        r2 = rj.simulate_dem(parapet, _dem_pulse(260), beta=2e-3, **kw)
+        r3 = rj.simulate_dem(parapet, _dem_pulse(260), dt=float(r1.extras["dt"]) / 2, **kw)
+    assert n_first >= 1 and len(compiles) == n_first
+    assert float(r3.extras["dt"]) < float(r2.extras["dt"]) < float(r1.extras["dt"])
     notes = [r.getMessage() for r in caplog.records if "compiling the DEM" in r.getMessage()]
     assert notes == [
-        f"rockjax: compiling the DEM solver for records of <= {dem.padded_length(200)} samples, "
-        f"{n_in} steps a sample (once per session)..."
+        "rockjax: compiling the DEM solver (a block, two-sided, integrated joint, saving forces, "
+        f"energy) for records of <= {dem.padded_length(200)} samples (once per session: every "
+        "beta, gap, time step and record of this kind reuses it)..."
     ]
     assert r2.extras["normal_forces"].shape[0] == 260
+
+
+def test_a_loop_over_beta_scale_and_geometry_compiles_the_dem_once():
+    # Reference: a count of XLA compilations (programs compiled or loaded from the persistent
+    # cache). The number of steps a sample changes with beta and the geometry (the default
+    # step); it is data, so after the first call the loop compiles nothing.
+    blocks = [rj.Block(b=b, h=h) for b, h in ((0.25, 1.5), (0.2, 1.0), (0.3, 2.5))]
+    gm = _dem_pulse(150, amp_g=0.25)
+    kw = dict(mode="one_sided", save=("energy",))  # a configuration no other test compiles
+    rj.simulate_dem(blocks[0], gm, beta=1e-4, gap=1e-3, **kw)
+    with count_compiles() as compiles:
+        steps = set()
+        for blk in blocks:
+            for beta in np.geomspace(1e-4, 3e-3, 4):  # NumPy floats after a Python float
+                for scale in (0.5, 1.5):
+                    motion = rj.GroundMotion(ag=scale * np.asarray(gm.ag), dt=gm.dt)
+                    r = rj.simulate_dem(blk, motion, beta=beta, gap=2e-3, **kw)
+                    steps.add(round(DEM_DT / float(r.extras["dt"])))
+    assert len(steps) >= 5  # the loop runs many numbers of steps a sample
+    assert compiles == []
 
 
 def _has_callback(fn, *args):
@@ -468,7 +495,7 @@ def test_a_second_process_loads_the_dem_from_the_cache(tmp_path):
     # process writes it to the cache and the second (another length, same bucket) loads it.
     env = os.environ | {compilation.CACHE_ENV: str(tmp_path / "cache")}
 
-    def cache_hits(duration):
+    def cache_hits(duration, compiles):
         out = subprocess.run(
             [sys.executable, "-c", _SECOND_DEM_PROCESS, str(duration)],
             env=env,
@@ -476,13 +503,14 @@ def test_a_second_process_loads_the_dem_from_the_cache(tmp_path):
             text=True,
         )
         assert out.returncode == 0, out.stderr
-        assert "compiling the DEM solver" in out.stderr, out.stderr
+        # the notice only where the solver is compiled, not where it is loaded
+        assert ("compiling the DEM solver" in out.stderr) == compiles, out.stderr
         return int(out.stdout.split()[-1])
 
-    assert cache_hits(4.0) == 0
+    assert cache_hits(4.0, compiles=True) == 0
     exported = tmp_path / "cache" / compilation.EXPORT_SUBDIR
-    assert len(list(exported.glob("run_prepared-*"))) == 1
-    assert cache_hits(6.0) >= 1
+    assert len(list(exported.glob("run_block-*"))) == 1
+    assert cache_hits(6.0, compiles=False) >= 1
 
 
 def test_dem_in_a_building_compiles_once_per_bucket():

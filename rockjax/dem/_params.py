@@ -22,7 +22,7 @@ from .._checks import (
 )
 from ..assembly import ASSEMBLY_GAP_UNUSED, Assembly
 from ..block import Block
-from ..compilation import persistent_jit
+from ..compilation import persistent_jit, strong_scalars
 from ..contact import Joint
 
 MODES = ("two_sided", "one_sided")
@@ -175,7 +175,9 @@ def dem_params(
     phi = concrete(phi_deg)
     if phi is not None and not (0.0 < phi < 90.0):
         raise ValueError(f"phi_deg (friction angle, degrees) must be in (0, 90); got {phi_deg}.")
-    return build_params(assembly, beta, gap, phi_deg, mode=mode, joint=joint)
+    # one program for Python and NumPy numbers alike (strong_scalars)
+    args = strong_scalars((assembly, beta, gap, phi_deg))
+    return build_params(*args, mode=mode, joint=joint)
 
 
 # Compiled: one call instead of ~40 eager operations (~1 ms a call).
