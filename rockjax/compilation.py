@@ -8,10 +8,16 @@ under ``grad``). rockjax avoids this, and says when it compiles:
   true length travels as data (an integer array), so every record whose length falls in one
   bucket shares one compiled program. :func:`pad_to` pads by repeating the last sample, which
   leaves a solver that holds the record at its last sample beyond the end unchanged.
-* **The persistent cache.** :func:`enable_cache` points JAX's on-disk compilation cache at
-  ``~/.cache/rockjax/jax`` (or ``$ROCKJAX_CACHE_DIR``), so a new process loads what an earlier
-  one compiled instead of compiling it again. The command line enables it at startup; in a
-  notebook or script call ``rj.enable_compilation_cache()`` once. ``ROCKJAX_CACHE_DIR=off``
+* **Values as data.** What a user loops over travels as data, not as static values: the DEM's
+  number of steps a sample (which changes with ``beta`` and the geometry), the block's
+  numbers, ``e``, ``gap``; and a Python ``float`` and a NumPy ``float64`` give one program
+  (:func:`strong_scalars`). A loop over any of them compiles once.
+* **The persistent cache**, on by default. :func:`enable_cache` points JAX's on-disk
+  compilation cache at ``~/.cache/rockjax/jax`` (``$XDG_CACHE_HOME/rockjax/jax``, or
+  ``$ROCKJAX_CACHE_DIR``), so a new process loads what an earlier one compiled instead of
+  compiling it again. The command line enables it at startup; the Python API at its first
+  eager compile of a solver (:func:`use_default_cache`; nothing at import), unless a cache
+  folder was already set for JAX (``JAX_COMPILATION_CACHE_DIR``). ``ROCKJAX_CACHE_DIR=off``
   disables it. JAX does not cache a program that calls back into Python, as ``eqx.error_if``
   does, so the eager calls of ``simulate_housner`` and ``simulate_dem`` compile their runs
   without it and check the returned status in Python afterwards (the same errors); under a
@@ -22,7 +28,9 @@ under ``grad``). rockjax avoids this, and says when it compiles:
   of about 6 s (docs/benchmarks.md, "Kept programs").
 * **Notices.** The first call that compiles a solver says so in one line ("compiling the Housner
   solver for records of <= 32768 samples (once per session)..."), through the ``rockjax``
-  logger when logging is configured, else on stderr. Silence them with
+  logger when logging is configured, else on stderr. The DEM's says which program it compiles
+  and comes only when one is compiled, not when it is in memory or kept on disk
+  (``persistent_jit``'s ``will_compile``). Silence them with
   ``logging.getLogger("rockjax").setLevel(logging.WARNING)``.
 """
 
@@ -391,7 +399,9 @@ def persistent_jit(fn):
     as code is: keep the cache folder writable by you alone (the default, under your home
     folder, is). ``wrapped.sources`` counts how each program was
     obtained (``"exported"``, ``"loaded"``, ``"not kept"``; ``"plain"``: calls, with the
-    cache on, passed to ``filter_jit``).
+    cache on, passed to ``filter_jit``); ``wrapped.will_compile(*args, **kwargs)`` tells
+    before a call whether it compiles a new program (none in memory, none kept on disk), for
+    a notice. The first eager call turns the persistent cache on (:func:`use_default_cache`).
     """
     jitted = eqx.filter_jit(fn)
     name = f"{fn.__module__}.{fn.__qualname__}"

@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._checks import check_choice, check_positive, check_samples, check_scalar, concrete
+from .._types import ScalarLike
 from ..assembly import Assembly
 from ..block import Block
 from ..compilation import is_batched, is_traced, notice, pad_to
@@ -42,7 +43,7 @@ def simulate_dem(
     gap=0.0,
     theta0=0.0,
     duration: float | None = None,
-    dt: float | None = None,
+    dt: ScalarLike | None = None,
     accuracy: float | None = None,
     joint: Joint = Joint(),
     phi_deg=None,
@@ -63,9 +64,9 @@ def simulate_dem(
 
     Compiles once per bucket of record lengths (:mod:`rockjax.compilation`): called with
     concrete inputs, the record is padded to :func:`padded_length` ``(n)`` samples (32 768 for
-    records up to that length) and its length passed as data, so a loop over records of
-    different lengths (or free-rocking durations) at one record step compiles once; a new
-    record step with a new number of steps a sample compiles again. Inside
+    records up to that length) and its length passed as data, and the number of steps a
+    sample is data too, so a loop over records of different lengths (or free-rocking
+    durations) and steps, over ``beta``, ``gap`` or block geometries compiles once. Inside
     ``jit``/``vmap``/``grad`` the caller's transform fixes the shapes.
 
     In a building (an assembly with ``support_motion=bldg``), the wall of storey ``storey``
@@ -89,7 +90,10 @@ def simulate_dem(
             (free vibration after the record); a shorter one truncates it.
         dt: Time step [s]; default :func:`stable_dt` (chosen for accuracy, see ``accuracy``).
             The step used is the largest divisor of the output step not above ``dt``. A step
-            above the stability limit is refused.
+            above the stability limit is refused. Inside a transform, a concrete ``dt`` fixes
+            the steps a sample in the program; a traced one makes them data (one program for
+            every step; forward mode and ``vmap`` only, a reverse-mode derivative cannot run
+            a loop of traced length), its stability checked in the run.
         accuracy: Accuracy of the default step, ``omega_max dt (1 + zeta)`` [-] (ignored when
             ``dt`` is given); default ``DT_ACCURACY[mode]`` (``DT_ACCURACY_SUB`` with integer
             ``n_sub``), which puts the first-impact ``e`` within 1e-3 of its converged value
