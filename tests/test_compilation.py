@@ -8,6 +8,7 @@ exported (its result equal to the bit, and to Eq. 2 written here), each static v
 own program, and what cannot be kept is still run correctly.
 """
 
+import json
 import logging
 import os
 import subprocess
@@ -145,6 +146,53 @@ _SECOND_PROCESS = textwrap.dedent(
     print(len(hits))
     """
 )
+
+
+_DEFAULT_CACHE_PROCESS = textwrap.dedent(
+    """
+    import json, os, sys
+    import jax, jax.numpy as jnp
+    import rockjax as rj
+    folder = rj.compilation.cache_dir()
+    before = folder is not None and folder.exists()
+    f = rj.compilation.persistent_jit(rj.relations.e_housner)
+    e = float(f(jnp.asarray(0.2)))
+    json.dump({"before": before, "jax": jax.config.jax_compilation_cache_dir, "e": e,
+               "sources": dict(f.sources)}, sys.stdout)
+    """
+)
+
+
+@pytest.mark.parametrize("case", ["default", "jax's own", "off"])
+def test_the_cache_is_on_from_the_first_eager_compile(tmp_path, case):
+    # In a new process: importing rockjax writes nothing; the first eager compile turns the
+    # cache on in the default folder (the program kept there), unless JAX's cache was set or
+    # the variable says off. Reference: the folders on disk and JAX's own configuration.
+    env = {k: v for k, v in os.environ.items() if k not in ("JAX_COMPILATION_CACHE_DIR",)}
+    env.pop(compilation.CACHE_ENV, None)
+    env["XDG_CACHE_HOME"] = str(tmp_path / "xdg")  # the default folder, here
+    default = tmp_path / "xdg" / "rockjax" / "jax"
+    if case == "jax's own":
+        env["JAX_COMPILATION_CACHE_DIR"] = str(tmp_path / "own")
+    if case == "off":
+        env[compilation.CACHE_ENV] = "off"
+    out = subprocess.run(
+        [sys.executable, "-c", _DEFAULT_CACHE_PROCESS],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 0, out.stderr
+    got = json.loads(out.stdout)
+    assert not got["before"]
+    np.testing.assert_allclose(got["e"], _e_h(0.2), rtol=1e-15)
+    if case == "default":
+        assert got["jax"] == str(default)
+        assert got["sources"] == {"exported": 1}
+        assert len(list((default / compilation.EXPORT_SUBDIR).glob("e_housner-*"))) == 1
+    else:
+        assert got["jax"] == (str(tmp_path / "own") if case == "jax's own" else None)
+        assert got["sources"] == {} and not default.exists()
 
 
 @pytest.mark.slow
