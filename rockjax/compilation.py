@@ -426,21 +426,24 @@ def persistent_jit(fn):
         return folder / f"{fn.__name__}-{key}.jaxexp"
 
     def signature(args, kwargs):
-        """``(dynamic, static, leaves, avals, memo)`` of a concrete call (``memo`` keys the
-        programs in memory), or None for a call inside a transform."""
-        dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
-        leaves, treedef = jax.tree.flatten(dynamic)
-        if is_traced(leaves):
+        """``(leaves, avals, memo)`` of a concrete call: its arrays, their shapes and types,
+        and ``memo``, which keys the programs in memory (the tree, its other values, the
+        arrays' avals); None for a call inside a transform. One flattening (0.1-0.2 ms for
+        the DEM's arguments; ``eqx.partition`` and two flattenings took about 0.5 ms)."""
+        flat, treedef = jax.tree.flatten((args, kwargs))
+        arrays = [eqx.is_array(x) for x in flat]
+        leaves = [x for x, a in zip(flat, arrays) if a]
+        if any(isinstance(x, jax.core.Tracer) for x in leaves):
             return None
-        s_leaves, s_def = jax.tree.flatten(static)
         avals = tuple(
             (np.shape(x), np.dtype(x.dtype), bool(getattr(x, "weak_type", False))) for x in leaves
         )
-        memo = (treedef, s_def, tuple(s_leaves), avals, _export_dir())
+        statics = tuple(None if a else x for x, a in zip(flat, arrays))
+        memo = (treedef, statics, avals, _export_dir())
         hash(memo)  # TypeError: an unhashable static argument
-        return dynamic, static, leaves, avals, memo
+        return leaves, avals, memo
 
-    def export(args, kwargs, dynamic, static, avals):
+    def export(args, kwargs, avals):
         path = kept_path(args, kwargs)
         if path is None:
             return plain
@@ -453,7 +456,8 @@ def persistent_jit(fn):
                 return jax.jit(exported.call), blob["skeleton"]
             except Exception:  # damaged, or written by an incompatible version: export again
                 pass
-        treedef = jax.tree.structure(dynamic)
+        dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
+        treedef = jax.tree.structure(dynamic)  # its leaves: the call's arrays, in order
         skeleton = {}
 
         def flat(*xs):
@@ -535,10 +539,10 @@ def persistent_jit(fn):
         if sig is None:
             sources["plain"] += 1
             return jitted(*args, **kwargs)
-        dynamic, static, leaves, avals, memo = sig
+        leaves, avals, memo = sig
         entry = programs.get(memo)
         if entry is None:
-            entry = programs[memo] = export(args, kwargs, dynamic, static, avals)
+            entry = programs[memo] = export(args, kwargs, avals)
         if entry is plain:
             sources["plain"] += 1
             return jitted(*args, **kwargs)

@@ -90,7 +90,8 @@ def run(
             that length, differentiable in reverse mode; a new value compiles a new program)
             or an integer array (data: the steps run as a loop whose trip count is traced, so
             every ``n_in``, i.e. every ``beta`` and geometry, shares one program; forward mode
-            only). The two give the same history to the bit. The eager
+            only). The two give the same history to round-off (0 to 7e-21 of its peak,
+            benchmarks/bench_compile.py ``--dem-loop``). The eager
             :func:`rockjax.simulate_dem` passes it as data.
         save: Extra outputs, ``"energy"`` and/or ``"forces"``.
         throw: Fail loudly (``eqx.error_if``) on a failed status; else report it.
