@@ -9,9 +9,8 @@ minute on 2 cores; ``--dem`` adds the DEM loops, about half a minute more), or
    user would: the number of XLA compilations of the solver (counted from ``jax.log_compiles``:
    programs named ``solve``, and all programs), the first call and the other nine.
    With ``--dem``, the same with ``rj.simulate_dem(block, record)``: first the eight far-field
-   components at dt = 0.01 s (eight lengths, 1 999 to 9 992 samples; one bucket and one
-   number of substeps a sample, so one compiled ``run_prepared``), then the ten above (one
-   program per record step: the substeps a sample are the inner scan's static length).
+   components at dt = 0.01 s (eight lengths, 1 999 to 9 992 samples; one bucket, so one
+   compiled ``run_block``), then the ten above (the steps a sample are data: still one).
 2. ``jax.jit(jax.grad(f))`` with ``f(e) = simulate_housner(block, ricker, e=e).theta_max`` for a
    20 s Ricker record (dt = 0.01 s): trace-and-lower and XLA compile times, wall and CPU.
 3. The persistent compilation cache (``rockjax.compilation``): the same eager call in two
@@ -28,6 +27,14 @@ minute on 2 cores; ``--dem`` adds the DEM loops, about half a minute more), or
    XLA compilation or cache loads, and the fitted ``beta``; then ``rockjax calibrate --b 0.25
    --h 1.5`` in a third process (cache filled): to its header line and to its end.
    ``--repeat N`` repeats the three processes ``N`` times, each time with a new cache folder.
+5. ``--dem-loop [--against DIR] [--repeat N]``: loops a user runs through ``rj.simulate_dem``
+   (6 betas, 3 facade gaps, 5 record scales, 4 block geometries; a 10 s record, one bucket),
+   each in a fresh process without a persistent cache: the programs compiled by the first
+   call and by the rest of the loop, with their compile times and the steps a sample of each
+   call; with ``--against DIR`` the same loops importing rockjax from ``DIR`` (e.g. an older
+   checkout), side by side. Then one 20 s history with the steps a sample static (a scan)
+   and as data (a loop with a traced trip count), alternated in one process: the time per
+   step of both layouts (about two minutes in all with ``--against``).
 """
 
 from __future__ import annotations
@@ -131,8 +138,8 @@ def dem_loops() -> None:
     per step)."""
     records = rj.records.fema_p695("farfield")
     one_step = _distinct_lengths([r for r in records if r.dt == 0.01], 10)
-    loop_over_records(rj.simulate_dem, "simulate_dem, dt 0.01 s", "run_prepared", one_step)
-    loop_over_records(rj.simulate_dem, "simulate_dem, mixed steps", "run_prepared")
+    loop_over_records(rj.simulate_dem, "simulate_dem, dt 0.01 s", "run", one_step)
+    loop_over_records(rj.simulate_dem, "simulate_dem, mixed steps", "run")
 
 
 def grad_compile() -> None:
@@ -310,6 +317,154 @@ def persistent_cache(calibrate: bool) -> None:
             )
 
 
+_DEM_LOOP = textwrap.dedent(
+    """
+    import json, sys, time
+    import jax
+    import numpy as np
+    import rockjax as rj
+
+    programs = []
+    jax.monitoring.register_event_duration_secs_listener(
+        lambda event, s, **kw: programs.append(s)
+        if event == "/jax/core/compile/backend_compile_duration" else None
+    )
+    rec = rj.GroundMotion.ricker(pga=3.0, period=0.5, dt=0.01, duration=10.0)
+    parapet, facade = rj.Block(b=0.25, h=1.5), rj.Block(b=0.2, h=1.5)
+    one_sided = dict(mode="one_sided", beta=1e-3)
+    loops = {
+        "6 betas (parapet)": [
+            lambda b=b: rj.simulate_dem(parapet, rec, beta=b)
+            for b in (1e-4, *np.geomspace(2e-4, 3e-3, 5))  # a Python float, then NumPy's
+        ],
+        "3 gaps (facade)": [
+            lambda g=g: rj.simulate_dem(facade, rec, gap=g, **one_sided)
+            for g in (1e-3, 2e-3, 5e-3)
+        ],
+        "5 record scales": [
+            lambda s=s: rj.simulate_dem(
+                parapet, rj.GroundMotion(ag=s * np.asarray(rec.ag), dt=rec.dt), beta=1e-3
+            )
+            for s in (0.5, 0.8, 1.2, 1.5, 2.0)
+        ],
+        "4 geometries": [
+            lambda b=b, h=h: rj.simulate_dem(rj.Block(b=b, h=h), rec, beta=1e-3)
+            for b, h in ((0.25, 1.5), (0.2, 1.0), (0.3, 2.5), (0.4, 3.0))
+        ],
+    }
+    calls = loops[sys.argv[1]]
+    rows = []
+    for call in calls:
+        n0, t = len(programs), time.perf_counter()
+        r = call()
+        jax.block_until_ready(r.theta)
+        rows.append((time.perf_counter() - t, len(programs) - n0, sum(programs[n0:]),
+                     round(rec.dt / float(r.extras["dt"]))))
+    json.dump({"rockjax": rj.__file__, "rows": rows}, sys.stdout)
+    """
+)
+DEM_LOOPS = ("6 betas (parapet)", "3 gaps (facade)", "5 record scales", "4 geometries")
+
+
+def _dem_loop(name: str, tree: str | None) -> list:
+    """``(wall s, programs compiled, their compile s, steps a sample)`` of each call of a loop,
+    in a fresh process without any persistent cache, importing rockjax from ``tree`` (None:
+    this one)."""
+    env = os.environ | {rj.compilation.CACHE_ENV: "off"}
+    env.pop("JAX_COMPILATION_CACHE_DIR", None)
+    env["PYTHONPATH"] = tree or os.path.dirname(os.path.dirname(os.path.abspath(rj.__file__)))
+    out = subprocess.run(  # run from elsewhere: `python -c` imports from its working folder
+        [sys.executable, "-c", _DEM_LOOP, name],
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=tempfile.gettempdir(),
+    )
+    if out.returncode:
+        raise RuntimeError(out.stderr[-2000:])
+    return json.loads(out.stdout)
+
+
+def dem_loop(against: str | None, repeat: int) -> None:
+    """Loops over beta, gap, record scale and geometry through ``rj.simulate_dem`` (10 s Ricker
+    record at 0.01 s, one bucket): the programs each call compiles (the first call of a fresh
+    process compiles the solver and its set-up; a loop that compiles once compiles nothing
+    after it), this tree against ``against`` (another checkout) side by side, alternated."""
+    trees = [("this tree", None)] + ([("against", os.path.abspath(against))] if against else [])
+    print(
+        "\nDEM loops in a fresh process, no persistent cache (programs compiled: count, compile "
+        "s; first call, then the rest of the loop; steps a sample per call):"
+    )
+    for name in DEM_LOOPS:
+        for i in range(repeat):
+            for label, tree in trees:
+                out = _dem_loop(name, tree)
+                if i == 0 and name == DEM_LOOPS[0]:
+                    print(f"  ({label}: {out['rockjax']})")
+                rows = out["rows"]
+                first, rest = rows[0], rows[1:]
+                print(
+                    f"  {name:<18} {label:<10} first {first[1]:2d} programs {first[2]:5.2f} s "
+                    f"(call {first[0]:5.2f} s); rest {sum(r[1] for r in rest):2d} programs "
+                    f"{sum(r[2] for r in rest):5.2f} s (calls {sum(r[0] for r in rest):5.2f} s); "
+                    f"n_in {[r[3] for r in rows]}"
+                )
+
+
+def static_vs_data(repeat: int) -> None:
+    """One 20 s history (Ricker pga 3 m/s^2, T 0.5 s, dt 0.01 s; beta_dejong) through
+    ``rj.dem.run`` padded to its bucket as ``rj.simulate_dem`` runs it, with the steps a sample
+    ``n_in`` static (a scan of that length: a program per value) and as data (a loop whose trip
+    count is traced: one program), in one process, calls alternated; median and min."""
+    from rockjax import dem
+
+    rec = rj.GroundMotion.ricker(pga=3.0, period=0.5, dt=0.01, duration=20.0)
+    n_pad = dem.padded_length(rec.n)
+    ag = rj.compilation.pad_to(np.asarray(rec.ag), n_pad)
+    zeros = rj.compilation.pad_to(np.zeros(rec.n), n_pad)
+    print(
+        "\none 20 s DEM history, steps a sample static (scan) against data (traced trip count), "
+        f"padded to {n_pad} samples; {repeat} alternated calls each:"
+    )
+    bodies = {
+        "0.25x3 block": rj.Block(b=0.25, h=3.0),
+        "0.2x1.5 block": rj.Block(b=0.2, h=1.5),
+        "stack of 2": rj.Assembly.stack([rj.Block(b=0.25, h=1.5)] * 2),
+    }
+    for name, body in bodies.items():
+        first = body if isinstance(body, rj.Block) else body.blocks[0]
+        beta = float(rj.beta_dejong(first))
+        p = dem.dem_params(body, beta)
+        s0 = dem.initial_state(body, p)
+        n_in = int(np.ceil(rec.dt / dem.stable_dt(body, beta) - 1e-9))
+        step, dt_out = np.asarray(rec.dt / n_in), np.asarray(rec.dt)
+
+        def go(n):
+            r = dem.run(p, s0, ag, zeros, step, dt_out, n, (), False, None, None,
+                        n=np.int32(rec.n), one_history=True)  # fmt: skip
+            return jax.block_until_ready(r.theta)
+
+        kinds = {"static": n_in, "data": np.int32(n_in)}
+        a, b = np.asarray(go(kinds["static"])), np.asarray(go(kinds["data"]))
+        differ = np.max(np.abs(a - b)) / np.max(np.abs(a))
+        times = {k: [] for k in kinds}
+        for i in range(repeat):
+            for k in kinds if i % 2 else reversed(kinds):
+                t = time.perf_counter()
+                go(kinds[k])
+                times[k].append(time.perf_counter() - t)
+        steps = rec.n * n_in
+        print(
+            f"  {name:<14} n_in {n_in:3d} ({steps} steps): "
+            + "; ".join(
+                f"{k} median {np.median(v) * 1e3:6.2f} ms, min {np.min(v) * 1e3:6.2f} ms "
+                f"({np.median(v) / steps * 1e9:4.0f} ns/step)"
+                for k, v in times.items()
+            )
+            + f"; theta differs by {differ:.1e} of its peak"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dem", action="store_true", help="also loop the DEM over the records")
@@ -321,8 +476,21 @@ def main() -> None:
     ap.add_argument(
         "--repeat", type=int, default=1, help="--fit: rounds of its three processes (default 1)"
     )
+    ap.add_argument(
+        "--dem-loop",
+        action="store_true",
+        help="only the DEM loops over beta, gap, scale, geometry and the n_in layouts (item 5)",
+    )
+    ap.add_argument(
+        "--against", help="--dem-loop: another checkout to run side by side (e.g. the old code)"
+    )
     args = ap.parse_args()
     print(f"rockjax compile benchmark, jax {jax.__version__}; {machine()}; load {load()}")
+    if args.dem_loop:
+        dem_loop(args.against, args.repeat)
+        static_vs_data(31)
+        print(f"\nload at the end {load()}")
+        return
     if args.fit:
         first_fit(args.repeat)
         print(f"\nload at the end {load()}")

@@ -8,10 +8,16 @@ under ``grad``). rockjax avoids this, and says when it compiles:
   true length travels as data (an integer array), so every record whose length falls in one
   bucket shares one compiled program. :func:`pad_to` pads by repeating the last sample, which
   leaves a solver that holds the record at its last sample beyond the end unchanged.
-* **The persistent cache.** :func:`enable_cache` points JAX's on-disk compilation cache at
-  ``~/.cache/rockjax/jax`` (or ``$ROCKJAX_CACHE_DIR``), so a new process loads what an earlier
-  one compiled instead of compiling it again. The command line enables it at startup; in a
-  notebook or script call ``rj.enable_compilation_cache()`` once. ``ROCKJAX_CACHE_DIR=off``
+* **Values as data.** What a user loops over travels as data, not as static values: the DEM's
+  number of steps a sample (which changes with ``beta`` and the geometry), the block's
+  numbers, ``e``, ``gap``; and a Python ``float`` and a NumPy ``float64`` give one program
+  (:func:`strong_scalars`). A loop over any of them compiles once.
+* **The persistent cache**, on by default. :func:`enable_cache` points JAX's on-disk
+  compilation cache at ``~/.cache/rockjax/jax`` (``$XDG_CACHE_HOME/rockjax/jax``, or
+  ``$ROCKJAX_CACHE_DIR``), so a new process loads what an earlier one compiled instead of
+  compiling it again. The command line enables it at startup; the Python API at its first
+  eager compile of a solver (:func:`use_default_cache`; nothing at import), unless a cache
+  folder was already set for JAX (``JAX_COMPILATION_CACHE_DIR``). ``ROCKJAX_CACHE_DIR=off``
   disables it. JAX does not cache a program that calls back into Python, as ``eqx.error_if``
   does, so the eager calls of ``simulate_housner`` and ``simulate_dem`` compile their runs
   without it and check the returned status in Python afterwards (the same errors); under a
@@ -22,7 +28,9 @@ under ``grad``). rockjax avoids this, and says when it compiles:
   of about 6 s (docs/benchmarks.md, "Kept programs").
 * **Notices.** The first call that compiles a solver says so in one line ("compiling the Housner
   solver for records of <= 32768 samples (once per session)..."), through the ``rockjax``
-  logger when logging is configured, else on stderr. Silence them with
+  logger when logging is configured, else on stderr. The DEM's says which program it compiles
+  and comes only when one is compiled, not when it is in memory or kept on disk
+  (``persistent_jit``'s ``will_compile``). Silence them with
   ``logging.getLogger("rockjax").setLevel(logging.WARNING)``.
 """
 
@@ -150,12 +158,28 @@ def enable_cache(directory: str | os.PathLike | None = None) -> Path | None:
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        _notice(f"rockjax: no compilation cache ({err}); set {CACHE_ENV} to a writable folder.")
+        notice(f"rockjax: no compilation cache ({err}); set {CACHE_ENV} to a writable folder.")
         return None
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", CACHE_MIN_COMPILE_S)
     _EXPORT["cache"] = path
     return path
+
+
+def use_default_cache() -> None:
+    """Turn the persistent cache on in :func:`cache_dir` the first time rockjax compiles in
+    this process (the Python API's default; the command line turns it on at startup). A cache
+    already chosen is left alone: by :func:`enable_cache`, or a folder set for JAX itself
+    (``JAX_COMPILATION_CACHE_DIR``, ``jax.config``) while ``$ROCKJAX_CACHE_DIR`` is unset;
+    ``ROCKJAX_CACHE_DIR=off`` keeps it off. Costs one dictionary look-up after the first call."""
+    if _EXPORT["default"]:
+        return
+    _EXPORT["default"] = True
+    if _EXPORT["cache"] is not None:
+        return
+    if os.environ.get(CACHE_ENV) is None and jax.config.jax_compilation_cache_dir:
+        return
+    enable_cache()
 
 
 def notice_once(key: Hashable, message: str) -> bool:
@@ -167,17 +191,33 @@ def notice_once(key: Hashable, message: str) -> bool:
     if key in _NOTICED:
         return False
     _NOTICED.add(key)
-    _notice(message)
+    notice(message)
     return True
 
 
-def _notice(message: str) -> None:
+def notice(message: str) -> None:
+    """Say ``message`` (one line): through the ``rockjax`` logger when logging is configured,
+    else on stderr; nothing when that logger is silenced (level above INFO)."""
     if _LOG.level > logging.INFO:
         return  # silenced
     if _LOG.hasHandlers():
         _LOG.info(message)
     else:
         print(message, file=sys.stderr, flush=True)
+
+
+def strong_scalars(tree):
+    """``tree`` with its Python and NumPy real numbers as float64 NumPy scalars (arrays and
+    tracers unchanged). JAX types a Python ``float`` weakly and a NumPy ``float64`` strongly,
+    and compiles a program once for each: a loop over ``beta = 0.001`` then over
+    ``np.linspace(...)`` values would compile it twice. Bools are left alone."""
+
+    def strong(x):
+        if isinstance(x, (float, int, np.floating, np.integer)) and not isinstance(x, bool):
+            return np.asarray(x, dtype=float)
+        return x
+
+    return jax.tree.map(strong, tree)
 
 
 def is_traced(*xs) -> bool:
@@ -213,7 +253,7 @@ EXPORT_SUBDIR = "exported"
 """Folder, inside the persistent cache, of the traced and lowered programs that
 :func:`persistent_jit` keeps (``jax.export`` artifacts)."""
 
-_EXPORT: dict[str, Path | None] = {"cache": None}  # the folder enable_cache last set
+_EXPORT: dict = {"cache": None, "default": False}  # enable_cache's last folder; default tried
 _LIBRARIES = (
     "rockjax",
     "jax",
@@ -359,7 +399,9 @@ def persistent_jit(fn):
     as code is: keep the cache folder writable by you alone (the default, under your home
     folder, is). ``wrapped.sources`` counts how each program was
     obtained (``"exported"``, ``"loaded"``, ``"not kept"``; ``"plain"``: calls, with the
-    cache on, passed to ``filter_jit``).
+    cache on, passed to ``filter_jit``); ``wrapped.will_compile(*args, **kwargs)`` tells
+    before a call whether it compiles a new program (none in memory, none kept on disk), for
+    a notice. The first eager call turns the persistent cache on (:func:`use_default_cache`).
     """
     jitted = eqx.filter_jit(fn)
     name = f"{fn.__module__}.{fn.__qualname__}"
@@ -369,16 +411,43 @@ def persistent_jit(fn):
     plain = object()
     sources: collections.Counter = collections.Counter()
 
-    def export(args, kwargs, dynamic, static, avals):
+    seen: set = set()  # the signatures will_compile answered for
+
+    def kept_path(args, kwargs) -> Path | None:
+        """Where the call's program is kept, or None when it cannot be kept."""
         folder = _export_dir()
-        if not keyed:
-            return plain
+        if not keyed or folder is None:
+            return None
         try:
             text = "|".join((_environment(), name, _describe((args, kwargs))))
         except (_Unkeyed, RecursionError):
-            return plain
+            return None
         key = hashlib.sha256(text.encode()).hexdigest()[:40]
-        path = folder / f"{fn.__name__}-{key}.jaxexp"
+        return folder / f"{fn.__name__}-{key}.jaxexp"
+
+    def signature(args, kwargs):
+        """``(leaves, avals, memo)`` of a concrete call: its arrays, their shapes and types,
+        and ``memo``, which keys the programs in memory (the tree, its other values, the
+        arrays' avals); None for a call inside a transform. One flattening (0.1-0.2 ms for
+        the DEM's arguments; ``eqx.partition`` and two flattenings took about 0.5 ms)."""
+        flat, treedef = jax.tree.flatten((args, kwargs))
+        arrays = [eqx.is_array(x) for x in flat]
+        leaves = [x for x, a in zip(flat, arrays) if a]
+        if any(isinstance(x, jax.core.Tracer) for x in leaves):
+            return None
+        avals = tuple(
+            (np.shape(x), np.dtype(x.dtype), bool(getattr(x, "weak_type", False))) for x in leaves
+        )
+        statics = tuple(None if a else x for x, a in zip(flat, arrays))
+        memo = (treedef, statics, avals, _export_dir())
+        hash(memo)  # TypeError: an unhashable static argument
+        return leaves, avals, memo
+
+    def export(args, kwargs, avals):
+        path = kept_path(args, kwargs)
+        if path is None:
+            return plain
+        folder = path.parent
         if path.is_file():
             try:
                 blob = pickle.loads(path.read_bytes())
@@ -387,7 +456,8 @@ def persistent_jit(fn):
                 return jax.jit(exported.call), blob["skeleton"]
             except Exception:  # damaged, or written by an incompatible version: export again
                 pass
-        treedef = jax.tree.structure(dynamic)
+        dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
+        treedef = jax.tree.structure(dynamic)  # its leaves: the call's arrays, in order
         skeleton = {}
 
         def flat(*xs):
@@ -418,36 +488,72 @@ def persistent_jit(fn):
             pass  # a read-only cache: this process keeps it in memory
         return jax.jit(exported.call), skeleton["out"]
 
+    last: list = []  # will_compile's signature, for the call that follows it
+
+    def signed(args, kwargs):
+        """:func:`signature`, the one will_compile just computed for these very arguments
+        taken instead of computed again (it costs about 0.5 ms for the DEM's)."""
+        if last:
+            a, k, sig = last.pop()
+            if len(a) == len(args) and all(x is y for x, y in zip(a, args)):
+                if k.keys() == kwargs.keys() and all(k[n] is kwargs[n] for n in k):
+                    return sig
+        return signature(args, kwargs)
+
+    def will_compile(*args, **kwargs) -> bool:
+        """Whether a call with these arguments compiles a new program: one this process has
+        not run (nor traced), and not kept on disk. False inside a transform (the caller's
+        program compiles it). Ask it just before the call: it counts the program as compiled
+        from then on."""
+        try:
+            if not _EXPORT["default"] and signature(args, kwargs) is not None:
+                use_default_cache()  # what the call would do first
+            sig = signature(args, kwargs)
+        except TypeError:
+            return True
+        last[:] = [(args, kwargs, sig)]
+        if sig is None:
+            return False
+        memo = sig[-1]
+        if memo in seen or programs.get(memo) not in (None, plain):
+            return False
+        seen.add(memo)
+        path = kept_path(args, kwargs)
+        return path is None or not path.is_file()
+
     @functools.wraps(fn)
     def call(*args, **kwargs):
+        if not _EXPORT["default"]:  # the first eager call turns the cache on
+            try:
+                if signature(args, kwargs) is not None:
+                    use_default_cache()
+            except TypeError:
+                pass
         if _export_dir() is None:
+            last.clear()
             return jitted(*args, **kwargs)
-        dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
-        leaves, treedef = jax.tree.flatten(dynamic)
-        if is_traced(leaves):
-            sources["plain"] += 1
-            return jitted(*args, **kwargs)
-        s_leaves, s_def = jax.tree.flatten(static)
         try:
-            avals = tuple(
-                (np.shape(x), np.dtype(x.dtype), bool(getattr(x, "weak_type", False)))
-                for x in leaves
-            )
-            memo = (treedef, s_def, tuple(s_leaves), avals, _export_dir())
-            entry = programs.get(memo)
+            sig = signed(args, kwargs)
         except TypeError:  # an unhashable static argument (filter_jit says so), a key array
+            sig = None
+        if sig is None:
             sources["plain"] += 1
             return jitted(*args, **kwargs)
+        leaves, avals, memo = sig
+        entry = programs.get(memo)
         if entry is None:
-            entry = programs[memo] = export(args, kwargs, dynamic, static, avals)
+            entry = programs[memo] = export(args, kwargs, avals)
         if entry is plain:
             sources["plain"] += 1
             return jitted(*args, **kwargs)
         run, skeleton = entry
-        # on one device, committed: JAX would compile the program again for a call whose
-        # arguments differ from the last call's only in being committed (outputs of programs)
-        out = run(*jax.device_put(leaves, jax.devices()[0]))
+        # uncommitted, as NumPy arrays and the outputs of programs are: JAX would compile the
+        # program again for a call whose arguments differ from the last call's only in being
+        # committed (placed on a device explicitly; rare), and committing every argument
+        # with jax.device_put cost 1-2 ms a call (the DEM's eager run takes 5-10 ms)
+        out = run(*(np.asarray(x) if getattr(x, "committed", False) else x for x in leaves))
         return jax.tree.map(lambda s: out[s.index] if isinstance(s, _Slot) else s, skeleton)
 
     call.sources = sources
+    call.will_compile = will_compile
     return call

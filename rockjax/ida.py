@@ -78,7 +78,7 @@ from ._types import ScalarLike
 from .assembly import ASSEMBLY_GAP_UNUSED, Assembly
 from .block import Block
 from .building import ShearBuilding
-from .compilation import persistent_jit
+from .compilation import persistent_jit, strong_scalars
 from .constants import G
 from .contact import Joint
 from .dem import simulate_assembly, simulate_dem, stable_dt, stable_dt_assembly
@@ -567,6 +567,10 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
     seen: set[float] = set()
     building = {"wall_motion", "support_motion", "storey"}
     config = {k: v for k, v in plan.config.items() if k not in building}
+    # the block, beta, e and gap as data (arrays), not static Python numbers: one program for
+    # every value (rockjax.compilation.strong_scalars)
+    config |= strong_scalars({k: config[k] for k in ("beta", "e", "gap")})
+    block = strong_scalars(plan.block)
     walls: dict[float, tuple] = {}
     supports: dict[float, tuple] = {}
     for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
@@ -611,7 +615,13 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
             support = tuple(place.replicated(a) for a in supports[g.dt])
             if moving:
                 support, wall = support[:-2], support[-2:]
-        out = _run_chunk(plan.block, ag, ag_v, rec_k, scale_k, wall, support, dt_rec=g.dt, **config)
+        # the step: data for the DEM (its number of steps a sample is then data too); for
+        # Housner the record step over its number of substeps (static: equal for every
+        # block that takes as many)
+        steps = max(1, math.ceil(g.dt / plan.config["dt_bound"] - 1e-9))
+        dt_bound = np.asarray(g.dt / steps) if config["model"] == "dem" else g.dt / steps
+        chunk = (block, ag, ag_v, rec_k, scale_k, wall, support)
+        out = _run_chunk(*chunk, dt_rec=g.dt, **(config | {"dt_bound": dt_bound}))
         out = jax.device_get(out)
         if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
             grids["t_heel"] = np.full((n_rec, n_scale), np.nan)

@@ -29,7 +29,12 @@ import jax  # noqa: E402
 import jaxtyping  # noqa: E402
 import pytest  # noqa: E402
 
-import rockjax  # noqa: E402, F401  (enables float64)
+import rockjax  # noqa: E402  (enables float64)
+
+# rockjax turns its own persistent cache on at the first eager compile, in the user's cache
+# folder unless JAX's cache is set (as above): off for the suite, and for the processes it
+# starts, so the tests never write to the user's cache (tests of the cache give it a folder).
+os.environ[rockjax.compilation.CACHE_ENV] = "off"
 
 jax.config.update("jax_numpy_rank_promotion", "raise")
 

@@ -8,6 +8,7 @@ exported (its result equal to the bit, and to Eq. 2 written here), each static v
 own program, and what cannot be kept is still run correctly.
 """
 
+import json
 import logging
 import os
 import subprocess
@@ -145,6 +146,53 @@ _SECOND_PROCESS = textwrap.dedent(
     print(len(hits))
     """
 )
+
+
+_DEFAULT_CACHE_PROCESS = textwrap.dedent(
+    """
+    import json, os, sys
+    import jax, jax.numpy as jnp
+    import rockjax as rj
+    folder = rj.compilation.cache_dir()
+    before = folder is not None and folder.exists()
+    f = rj.compilation.persistent_jit(rj.relations.e_housner)
+    e = float(f(jnp.asarray(0.2)))
+    json.dump({"before": before, "jax": jax.config.jax_compilation_cache_dir, "e": e,
+               "sources": dict(f.sources)}, sys.stdout)
+    """
+)
+
+
+@pytest.mark.parametrize("case", ["default", "jax's own", "off"])
+def test_the_cache_is_on_from_the_first_eager_compile(tmp_path, case):
+    # In a new process: importing rockjax writes nothing; the first eager compile turns the
+    # cache on in the default folder (the program kept there), unless JAX's cache was set or
+    # the variable says off. Reference: the folders on disk and JAX's own configuration.
+    env = {k: v for k, v in os.environ.items() if k not in ("JAX_COMPILATION_CACHE_DIR",)}
+    env.pop(compilation.CACHE_ENV, None)
+    env["XDG_CACHE_HOME"] = str(tmp_path / "xdg")  # the default folder, here
+    default = tmp_path / "xdg" / "rockjax" / "jax"
+    if case == "jax's own":
+        env["JAX_COMPILATION_CACHE_DIR"] = str(tmp_path / "own")
+    if case == "off":
+        env[compilation.CACHE_ENV] = "off"
+    out = subprocess.run(
+        [sys.executable, "-c", _DEFAULT_CACHE_PROCESS],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 0, out.stderr
+    got = json.loads(out.stdout)
+    assert not got["before"]
+    np.testing.assert_allclose(got["e"], _e_h(0.2), rtol=1e-15)
+    if case == "default":
+        assert got["jax"] == str(default)
+        assert got["sources"] == {"exported": 1}
+        assert len(list((default / compilation.EXPORT_SUBDIR).glob("e_housner-*"))) == 1
+    else:
+        assert got["jax"] == (str(tmp_path / "own") if case == "jax's own" else None)
+        assert got["sources"] == {} and not default.exists()
 
 
 @pytest.mark.slow
@@ -412,17 +460,44 @@ def test_dem_traced_records_are_not_padded(parapet):
 
 
 def test_a_compiling_dem_call_says_so_once(parapet, caplog):
+    # Reference: a count of XLA compilations. The notice comes with the one call that
+    # compiles, and says what it compiles; another record, beta or time step of the same kind
+    # runs that program, silently.
     kw = dict(save=("forces", "energy"))  # a configuration that no other test compiles
-    with caplog.at_level(logging.INFO, logger="rockjax"):
+    with caplog.at_level(logging.INFO, logger="rockjax"), count_compiles() as compiles:
         r1 = rj.simulate_dem(parapet, _dem_pulse(200), **kw)
-        r2 = rj.simulate_dem(parapet, _dem_pulse(260), **kw)
-    n_in = round(DEM_DT / float(r1.extras["dt"]))
+        n_first = len(compiles)
+        r2 = rj.simulate_dem(parapet, _dem_pulse(260), beta=2e-3, **kw)
+        r3 = rj.simulate_dem(parapet, _dem_pulse(260), dt=float(r1.extras["dt"]) / 2, **kw)
+    assert n_first >= 1 and len(compiles) == n_first
+    assert float(r3.extras["dt"]) < float(r2.extras["dt"]) < float(r1.extras["dt"])
     notes = [r.getMessage() for r in caplog.records if "compiling the DEM" in r.getMessage()]
     assert notes == [
-        f"rockjax: compiling the DEM solver for records of <= {dem.padded_length(200)} samples, "
-        f"{n_in} steps a sample (once per session)..."
+        "rockjax: compiling the DEM solver (a block, two-sided, integrated joint, saving forces, "
+        f"energy) for records of <= {dem.padded_length(200)} samples (once per session: every "
+        "beta, gap, time step and record of this kind reuses it)..."
     ]
     assert r2.extras["normal_forces"].shape[0] == 260
+
+
+def test_a_loop_over_beta_scale_and_geometry_compiles_the_dem_once():
+    # Reference: a count of XLA compilations (programs compiled or loaded from the persistent
+    # cache). The number of steps a sample changes with beta and the geometry (the default
+    # step); it is data, so after the first call the loop compiles nothing.
+    blocks = [rj.Block(b=b, h=h) for b, h in ((0.25, 1.5), (0.2, 1.0), (0.3, 2.5))]
+    gm = _dem_pulse(150, amp_g=0.25)
+    kw = dict(mode="one_sided", save=("energy",))  # a configuration no other test compiles
+    rj.simulate_dem(blocks[0], gm, beta=1e-4, gap=1e-3, **kw)
+    with count_compiles() as compiles:
+        steps = set()
+        for blk in blocks:
+            for beta in np.geomspace(1e-4, 3e-3, 4):  # NumPy floats after a Python float
+                for scale in (0.5, 1.5):
+                    motion = rj.GroundMotion(ag=scale * np.asarray(gm.ag), dt=gm.dt)
+                    r = rj.simulate_dem(blk, motion, beta=beta, gap=2e-3, **kw)
+                    steps.add(round(DEM_DT / float(r.extras["dt"])))
+    assert len(steps) >= 5  # the loop runs many numbers of steps a sample
+    assert compiles == []
 
 
 def _has_callback(fn, *args):
@@ -468,7 +543,7 @@ def test_a_second_process_loads_the_dem_from_the_cache(tmp_path):
     # process writes it to the cache and the second (another length, same bucket) loads it.
     env = os.environ | {compilation.CACHE_ENV: str(tmp_path / "cache")}
 
-    def cache_hits(duration):
+    def cache_hits(duration, compiles):
         out = subprocess.run(
             [sys.executable, "-c", _SECOND_DEM_PROCESS, str(duration)],
             env=env,
@@ -476,13 +551,14 @@ def test_a_second_process_loads_the_dem_from_the_cache(tmp_path):
             text=True,
         )
         assert out.returncode == 0, out.stderr
-        assert "compiling the DEM solver" in out.stderr, out.stderr
+        # the notice only where the solver is compiled, not where it is loaded
+        assert ("compiling the DEM solver" in out.stderr) == compiles, out.stderr
         return int(out.stdout.split()[-1])
 
-    assert cache_hits(4.0) == 0
+    assert cache_hits(4.0, compiles=True) == 0
     exported = tmp_path / "cache" / compilation.EXPORT_SUBDIR
-    assert len(list(exported.glob("run_prepared-*"))) == 1
-    assert cache_hits(6.0) >= 1
+    assert len(list(exported.glob("run_block-*"))) == 1
+    assert cache_hits(6.0, compiles=False) >= 1
 
 
 def test_dem_in_a_building_compiles_once_per_bucket():

@@ -19,7 +19,7 @@ from .._checks import (
 )
 from ..assembly import ASSEMBLY_GAP_UNUSED, Assembly
 from ..block import Block
-from ..compilation import persistent_jit
+from ..compilation import persistent_jit, strong_scalars
 from ..contact import Joint
 from ..modes import MODE_NAMES, Facade, Mode, Parapet, as_mode
 
@@ -169,7 +169,9 @@ def dem_params(
     phi = concrete(phi_deg)
     if phi is not None and not (0.0 < phi < 90.0):
         raise ValueError(f"phi_deg (friction angle, degrees) must be in (0, 90); got {phi_deg}.")
-    return build_params(assembly, beta, mode.gap, phi_deg, one_sided=mode.one_sided, joint=joint)
+    # one program for Python and NumPy numbers alike (strong_scalars)
+    args = strong_scalars((assembly, beta, mode.gap, phi_deg))
+    return build_params(*args, one_sided=mode.one_sided, joint=joint)
 
 
 def mode_of(body: Block | Assembly, mode, gap=None) -> Mode:

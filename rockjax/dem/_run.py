@@ -11,7 +11,10 @@ compiles the loop as a single kernel without per-iteration dispatch.
 
 Compile once per bucket of record lengths (:mod:`rockjax.compilation`): :func:`run` takes the
 true number of samples ``n`` as data when the series are padded beyond it; it then skips the
-chunks of :data:`SCAN_CHUNK` samples past ``n`` and freezes the state from there.
+chunks of :data:`SCAN_CHUNK` samples past ``n`` and freezes the state from there. The number of
+steps a sample ``n_in`` may be data too (a ``fori_loop`` with a traced trip count instead of the
+inner scan: as fast, measured in benchmarks/bench_compile.py ``--dem-loop``), so a loop over
+``beta`` or geometries compiles once.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import math
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+from jaxtyping import ArrayLike, Int
 
 from ..compilation import bucket_length, persistent_jit
 from ..response import (
@@ -64,7 +68,7 @@ def run(
     ag_v,
     dt,
     dt_out,
-    n_in: int,
+    n_in: int | Int[ArrayLike, ""],
     save: tuple = (),
     throw: bool = False,
     top=None,
@@ -82,6 +86,13 @@ def run(
     :func:`rockjax.dem.initial_state`, ``dt = dt_out / n_in``.
 
     Args:
+        n_in: Steps per record sample: a Python ``int`` (static: the steps run as a scan of
+            that length, differentiable in reverse mode; a new value compiles a new program)
+            or an integer array (data: the steps run as a loop whose trip count is traced, so
+            every ``n_in``, i.e. every ``beta`` and geometry, shares one program; forward mode
+            only). The two give the same history to round-off (0 to 7e-21 of its peak,
+            benchmarks/bench_compile.py ``--dem-loop``). The eager
+            :func:`rockjax.simulate_dem` passes it as data.
         save: Extra outputs, ``"energy"`` and/or ``"forces"``.
         throw: Fail loudly (``eqx.error_if``) on a failed status; else report it.
         top: ``None``, or the top restraint's displacement [m] and velocity [m/s] relative to
@@ -107,6 +118,7 @@ def run(
         top_xs = (zeros, zeros, zeros, zeros)
     else:
         top_xs = (top[0], nxt(top[0]), top[1], nxt(top[1]))
+    static = isinstance(n_in, int)
     moving = wall is not None
     work = moving and "energy" in save
     # the forces ride in the carry only when asked for (a static choice: no cost otherwise)
@@ -179,8 +191,11 @@ def run(
                 s_, _, power = substep(s_, j)
                 return (s_, j + 1.0) + ((c[2] + dt * power,) if work else ()), None
 
-            if n_in > 1:
-                init, _ = jax.lax.scan(inner, init, length=n_in - 1)
+            if static:
+                if n_in > 1:
+                    init, _ = jax.lax.scan(inner, init, length=n_in - 1)
+            else:  # a traced trip count: one program for every n_in
+                init = jax.lax.fori_loop(1, n_in, lambda _, c: inner(c, None)[0], init)
             new = init[0]
             done = (new, None, None) + init[2:]
         else:
@@ -198,7 +213,10 @@ def run(
             n_forces = (2 * p.n + p.restrained + (p.n if p.one_sided else 0)) if forces else 0
             first0 = tuple(zero for _ in range(n_acc + n_forces))
             init = (st, zero, first0) + ((carry[3],) if work else ())
-            done, _ = jax.lax.scan(inner, init, length=n_in)
+            if static:
+                done, _ = jax.lax.scan(inner, init, length=n_in)
+            else:
+                done = jax.lax.fori_loop(0, n_in, lambda _, c: inner(c, None)[0], init)
             new, first = done[0], done[2]
         vel = [
             (
@@ -295,7 +313,7 @@ def run_block(
     ag_v,
     dt,
     dt_out,
-    n_in: int,
+    n_in: int | Int[ArrayLike, ""],
     save: tuple = (),
     throw: bool = False,
     top=None,

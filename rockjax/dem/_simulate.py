@@ -9,10 +9,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import check_choice, check_positive, check_samples, concrete
+from .._checks import check_choice, check_positive, check_samples, check_scalar, concrete
+from .._types import ScalarLike
 from ..assembly import Assembly
 from ..block import Block
-from ..compilation import is_batched, is_traced, notice_once, pad_to
+from ..compilation import is_batched, is_traced, notice, pad_to
 from ..contact import Joint
 from ..modes import Mode
 from ..motion import GroundMotion
@@ -44,7 +45,7 @@ def simulate_dem(
     gap=None,
     theta0=0.0,
     duration: float | None = None,
-    dt: float | None = None,
+    dt: ScalarLike | None = None,
     accuracy: float | None = None,
     joint: Joint = Joint(),
     phi_deg=None,
@@ -65,9 +66,9 @@ def simulate_dem(
 
     Compiles once per bucket of record lengths (:mod:`rockjax.compilation`): called with
     concrete inputs, the record is padded to :func:`padded_length` ``(n)`` samples (32 768 for
-    records up to that length) and its length passed as data, so a loop over records of
-    different lengths (or free-rocking durations) at one record step compiles once; a new
-    record step with a new number of steps a sample compiles again. Inside
+    records up to that length) and its length passed as data, and the number of steps a
+    sample is data too, so a loop over records of different lengths (or free-rocking
+    durations) and steps, over ``beta``, ``gap`` or block geometries compiles once. Inside
     ``jit``/``vmap``/``grad`` the caller's transform fixes the shapes.
 
     In a building (an assembly with ``support_motion=bldg``), the wall of storey ``storey``
@@ -93,7 +94,10 @@ def simulate_dem(
             (free vibration after the record); a shorter one truncates it.
         dt: Time step [s]; default :func:`stable_dt` (chosen for accuracy, see ``accuracy``).
             The step used is the largest divisor of the output step not above ``dt``. A step
-            above the stability limit is refused.
+            above the stability limit is refused. Inside a transform, a concrete ``dt`` fixes
+            the steps a sample in the program; a traced one makes them data (one program for
+            every step; forward mode and ``vmap`` only, a reverse-mode derivative cannot run
+            a loop of traced length), its stability checked in the run.
         accuracy: Accuracy of the default step, ``omega_max dt (1 + zeta)`` [-] (ignored when
             ``dt`` is given); default the mode's ``dt_accuracy`` (``dt_accuracy_sub`` with
             integer ``n_sub``; :data:`DT_ACCURACY`), which puts the first-impact ``e`` within 1e-3 of its converged value
@@ -164,7 +168,7 @@ def simulate_dem(
     ag, top, wall = supports.ag, supports.top, supports.wall
     accuracy = check_accuracy(accuracy, mode, joint)
     n_in = steps_per_sample(p, block, beta, beta_max, mode, joint, dt, dt_out, accuracy)
-    step = np.asarray(dt_out / n_in)
+    step = (np if isinstance(n_in, int) else jnp).asarray(dt_out / n_in)
     st0 = initial_state(block, p, theta0)
     dt_out = np.asarray(dt_out)
     program = run_block if single else run
@@ -200,40 +204,30 @@ def run_padded(program, p, st0, ag, ag_v, step, dt_out, n_in, save, top, wall, m
     compilation cache."""
     n_out = ag.shape[0]
     n_pad = padded_length(n_out)
-    notice_once(
-        (
-            "dem",
-            n_pad,
-            n_in,
-            float(dt_out),
-            mode,
-            p.n_sub,
-            p.links,
-            save,
-            top is None,
-            wall is None,
-        ),
-        f"rockjax: compiling the DEM solver for records of <= {n_pad} samples, {n_in} steps a "
-        "sample (once per session)...",
-    )
 
     def padded(pair):
         return None if pair is None else tuple(pad_to(a, n_pad) for a in pair)
 
-    return program(
-        p,
-        st0,
-        pad_to(ag, n_pad),
-        pad_to(ag_v, n_pad),
-        step,
-        dt_out,
-        n_in,
-        save,
-        False,
-        padded(top),
-        padded(wall),
-        n=np.asarray(n_out, dtype=np.int32),
-        one_history=True,
+    args = (p, st0, pad_to(ag, n_pad), pad_to(ag_v, n_pad), step, dt_out)
+    # n_in as data: every number of steps a sample (beta, the geometry) runs one program
+    args += (np.asarray(n_in, dtype=np.int32), save, False, padded(top), padded(wall))
+    kw = dict(n=np.asarray(n_out, dtype=np.int32), one_history=True)
+    if program.will_compile(*args, **kw):  # not when in memory or kept on disk
+        notice(compile_notice(p, mode, n_pad, save, top, wall))
+    return program(*args, **kw)
+
+
+def compile_notice(p, mode, n_pad, save, top, wall) -> str:
+    """The one line that says which DEM program a call compiles, and what reuses it."""
+    body = "a block" if p.n == 1 else f"an assembly of {p.n} blocks"
+    joint = "integrated joint" if p.n_sub == "exact" else f"{p.n_sub} sub-contacts a face"
+    extras = [f"saving {', '.join(save)}"] if save else []
+    extras += [] if top is None else ["moving top restraint"]
+    extras += [] if wall is None else ["moving return wall"]
+    what = ", ".join([body, mode.replace("_", "-"), joint, *extras])
+    return (
+        f"rockjax: compiling the DEM solver ({what}) for records of <= {n_pad} samples "
+        "(once per session: every beta, gap, time step and record of this kind reuses it)..."
     )
 
 
@@ -256,9 +250,16 @@ def check_save(save) -> tuple:
     return tuple(save)
 
 
-def steps_per_sample(p, body, beta, beta_max, mode, joint, dt, dt_out, accuracy) -> int:
+def steps_per_sample(p, body, beta, beta_max, mode, joint, dt, dt_out, accuracy):
     """The number of steps per record sample: the default step (or ``dt``, checked against
-    the stability limit) rounded down to divide the sample step ``dt_out`` [s]."""
+    the stability limit) rounded down to divide the sample step ``dt_out`` [s]. An ``int``;
+    an int32 array when ``dt`` is traced."""
+    if dt is not None and concrete(dt) is None:
+        # a traced step (e.g. one program for every beta of a batch): the number of steps is
+        # data, the inner loop's trip count (forward mode only: reverse mode cannot run a loop
+        # whose length is traced); the stability limit is checked in the run (its status)
+        check_scalar("dt", dt, "s", "Or leave dt=None (chosen for accuracy).")
+        return jnp.maximum(1, jnp.ceil(dt_out / dt - 1e-9)).astype(jnp.int32)
     limit, dt_default = concrete_steps(p, body, beta_max, joint, mode, dt, accuracy)
     if dt is None:
         return max(1, math.ceil(dt_out / dt_default - 1e-9))
