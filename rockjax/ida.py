@@ -567,9 +567,9 @@ def _run(plan: _Plan, place: _Placement, progress: bool | None) -> dict[str, np.
     seen: set[float] = set()
     building = {"wall_motion", "support_motion", "storey"}
     config = {k: v for k, v in plan.config.items() if k not in building}
-    # the block, beta, e and gap as data (arrays), not static Python numbers: one program for
-    # every value (rockjax.compilation.strong_scalars)
-    config |= strong_scalars({k: config[k] for k in ("beta", "e", "gap")})
+    # the block, beta, e and a facade's gap as data (arrays), not static Python numbers: one
+    # program for every value (rockjax.compilation.strong_scalars)
+    config |= strong_scalars({k: config[k] for k in ("beta", "e", "mode")})
     block = strong_scalars(plan.block)
     walls: dict[float, tuple] = {}
     supports: dict[float, tuple] = {}
