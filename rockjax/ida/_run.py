@@ -1,0 +1,208 @@
+"""Running an IDA's chunks: the batched DEM and Housner runs, the buildings' histories
+solved once per record."""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import _progress
+from .._lazy import lazy_module
+from ..assembly import Assembly
+from ..compilation import persistent_jit, strong_scalars
+from ..dem import simulate_assembly, simulate_dem
+from ..housner import batch_runs, simulate_housner
+from ..motion import GroundMotion
+from ..response import STATUS_OK
+from ..supports import storey_supports, wall_top_motion
+from ._plan import Placement, Plan
+
+xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
+
+
+def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, np.ndarray]:
+    """Run the plan's chunks; the EDPs on the (record, scale) grid."""
+    n_rec, n_scale = len(plan.records), plan.scales.size
+    grids = {
+        "max_d_over_b": np.full((n_rec, n_scale), np.nan),
+        "max_theta_over_eta": np.full((n_rec, n_scale), np.nan),
+        "collapse": np.zeros((n_rec, n_scale), bool),
+        "status": np.zeros((n_rec, n_scale), np.int32),
+    }
+    bar = _progress.bar(progress, total=n_rec * n_scale, desc="rockjax.ida", unit="run")
+    seen: set[float] = set()
+    building = {"wall_motion", "support_motion", "storey"}
+    config = {k: v for k, v in plan.config.items() if k not in building}
+    # the block, beta, e and a facade's gap as data (arrays), not static Python numbers: one
+    # program for every value (rockjax.compilation.strong_scalars)
+    config |= strong_scalars({k: config[k] for k in ("beta", "e", "mode")})
+    block = strong_scalars(plan.block)
+    walls: dict[float, tuple] = {}
+    supports: dict[float, tuple] = {}
+    for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
+        # the first chunk of a dt group compiles: say so while it runs
+        first = g.dt not in seen
+        seen.add(g.dt)
+        bar.set_postfix_str(
+            f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s" + (", compiling" if first else "")
+        )
+        flat = np.arange(k * size, (k + 1) * size)
+        real = flat < n_runs_g
+        flat = np.where(real, flat, 0)  # padding: repeats of the group's first run, dropped
+        local, j = np.divmod(flat, n_scale)
+        ag, ag_v = place.replicated(g.ag), place.replicated(g.ag_v)
+        rec_k, scale_k = place.split(local.astype(np.int32)), place.split(plan.scales[j])
+        wall = None
+        in_building = plan.config["support_motion"] is not None
+        if plan.config["wall_motion"] is not None and not in_building:
+            # the building is linear: its wall motion under a scaled record is the scaled
+            # wall motion, so it is solved once per record, not in every run
+            if g.dt not in walls:
+                # taken at the facade's height: the block's, or the stack's
+                height = plan.block.height if isinstance(plan.block, Assembly) else plan.block.h
+                walls[g.dt] = wall_histories(plan.config["wall_motion"], g.ag, g.dt, height)
+            wall = tuple(place.replicated(w) for w in walls[g.dt])
+        support = None
+        if plan.config["support_motion"] is not None:
+            # the same for a wall of several blocks: its base floor's acceleration and the
+            # storey's drift at scale 1, once per record
+            # (and the return walls' motion relative to the base floor, when they move with
+            # the building: the same solve)
+            moving = plan.config["wall_motion"] is not None
+            if g.dt not in supports:
+                supports[g.dt] = support_histories(
+                    plan.config["support_motion"],
+                    g.ag,
+                    g.dt,
+                    plan.config["storey"],
+                    plan.block.top == "restrained",
+                    plan.block.height if moving else None,
+                )
+            support = tuple(place.replicated(a) for a in supports[g.dt])
+            if moving:
+                support, wall = support[:-2], support[-2:]
+        # the step: data for the DEM (its number of steps a sample is then data too); for
+        # Housner the record step over its number of substeps (static: equal for every
+        # block that takes as many)
+        steps = max(1, math.ceil(g.dt / plan.config["dt_bound"] - 1e-9))
+        dt_bound = np.asarray(g.dt / steps) if config["model"] == "dem" else g.dt / steps
+        chunk = (block, ag, ag_v, rec_k, scale_k, wall, support)
+        out = run_chunk(*chunk, dt_rec=g.dt, **(config | {"dt_bound": dt_bound}))
+        out = jax.device_get(out)
+        if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
+            grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
+        for key in grids:
+            grids[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
+        bar.set_postfix_str(f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s", refresh=False)
+        bar.update(int(real.sum()))
+    bar.close()
+    return grids
+
+
+@persistent_jit
+def wall_histories(building, ag, dt: float, height):
+    """``(u_top, v_top)`` of the return wall at ``height`` for every record of a group at scale
+    1, shape (record, time) (:func:`rockjax.wall_top_motion`)."""
+
+    def one(a):
+        return wall_top_motion(building, GroundMotion(ag=a, dt=dt), height)
+
+    return jax.vmap(one)(ag)
+
+
+@persistent_jit
+def support_histories(building, ag, dt: float, storey: int, restrained: bool, wall_height=None):
+    """The supports of a wall in storey ``storey`` for every record of a group at scale 1,
+    each (record, time): the base floor's absolute acceleration [m/s^2] and, for a restrained
+    top, the storey's drift [m] and its rate [m/s] (floor ``storey`` less floor ``storey - 1``,
+    :meth:`rockjax.ShearBuilding.response`), as :func:`rockjax.simulate_assembly` computes them
+    in a single run; with ``wall_height`` [m], last, the return walls' ``(u_top, v_top)``
+    relative to the base floor at that height (:func:`rockjax.supports.storey_supports`)."""
+
+    def one(a):
+        base, top, *walls = storey_supports(
+            building, a, dt, storey, restrained, wall_height=wall_height
+        )
+        out = (base,) if top is None else (base, *top)
+        return out + (tuple(walls[0]) if walls else ())
+
+    return jax.vmap(one)(ag)
+
+
+@persistent_jit
+def run_chunk(
+    block,
+    ag,
+    ag_v,
+    rec_idx,
+    scale,
+    wall,
+    support,
+    *,
+    model,
+    mode,
+    beta,
+    e,
+    joint,
+    law,
+    dt_rec,
+    dt_bound,
+):
+    """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (batched); ``wall``:
+    None, or the return wall's ``(u_top, v_top)`` per record at scale 1, scaled likewise;
+    ``support``: None, or an assembly's base acceleration (and top restraint's ``(u, v)``) per
+    record at scale 1 (:func:`support_histories`), scaled likewise."""
+
+    common = dict(beta=beta, mode=mode, dt=dt_bound, joint=joint, throw=False)
+
+    def one(i, s):
+        motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
+        wall_motion = None if wall is None else (s * wall[0][i], s * wall[1][i])
+        if isinstance(block, Assembly):
+            kw = {}
+            if support is not None:
+                motion = GroundMotion(ag=s * support[0][i], dt=dt_rec, ag_v=motion.ag_v)
+                if len(support) == 3:
+                    kw["support_motion"] = (s * support[1][i], s * support[2][i])
+            if wall_motion is not None:
+                kw["wall_motion"] = wall_motion
+            r = simulate_assembly(block, motion, **common, **kw)
+            top = block.blocks[-1]
+            # (r.x is already relative to the block's rest position)
+            d = r.x[:, -1] + 0.5 * top.h * jnp.sin(r.theta[:, -1])
+            ok = r.status == STATUS_OK
+            return {
+                "max_d_over_b": jnp.where(ok, jnp.max(jnp.abs(d)) / block.blocks[0].b, jnp.nan),
+                "max_theta_over_eta": jnp.where(ok, jnp.max(r.theta_max / r.eta), jnp.nan),
+                "collapse": r.overturned & ok,
+                "status": r.status.astype(jnp.int32),
+            }
+        if model == "dem":
+            r = simulate_dem(
+                block,
+                motion,
+                **common,
+                **({} if wall_motion is None else {"wall_motion": wall_motion}),
+            )
+            d_max = r.extras["d_max"]
+        else:
+            extra = {} if law is None else {"law": law}
+            if wall_motion is not None:
+                extra["wall_motion"] = wall_motion
+            r = simulate_housner(block, motion, e=e, mode=mode, dt=dt_bound, throw=False, **extra)
+            d_max = block.top_displacement(r.theta_max)
+        ok = r.status == STATUS_OK
+        heel = {} if "t_heel" not in r.extras else {"t_heel": r.extras["t_heel"]}
+        return {
+            "max_d_over_b": jnp.where(ok, d_max / block.b, jnp.nan),
+            "max_theta_over_eta": jnp.where(ok, r.theta_max / r.eta, jnp.nan),
+            "collapse": r.overturned & ok,
+            "status": r.status.astype(jnp.int32),
+        } | heel
+
+    if model == "dem" or isinstance(block, Assembly):
+        return jax.vmap(one)(rec_idx, scale)
+    return batch_runs(one, rec_idx, scale)  # on CPU one run after another (much faster)
