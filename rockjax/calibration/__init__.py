@@ -44,7 +44,9 @@ NumPy peak finder independent of the loss (:func:`rockjax.response.bounce_peaks`
 :mod:`~rockjax.calibration.derivatives` (the forward-mode ``custom_vjp``),
 :mod:`~rockjax.calibration.solvers` (L-BFGS, grid, Illinois false position),
 :mod:`~rockjax.calibration.result` (:class:`Calibration`, :class:`HistoryFit`, the tolerances and
-the verdict), :mod:`~rockjax.calibration.fit` (the public fits).
+the verdict), :mod:`~rockjax.calibration.fit` (:func:`fit_beta`),
+:mod:`~rockjax.calibration.fit_e` (:func:`fit_e`, :func:`e_effective`) and
+:mod:`~rockjax.calibration.fit_history` (:func:`fit_history`).
 """
 
 from .fit import GAP_TOL as GAP_TOL
@@ -52,10 +54,10 @@ from .fit import HISTORY_SPAN as HISTORY_SPAN
 from .fit import HISTORY_STEP as HISTORY_STEP
 from .fit import LOSSES as LOSSES
 from .fit import METHODS as METHODS
-from .fit import e_effective as e_effective
 from .fit import fit_beta as fit_beta
-from .fit import fit_e as fit_e
-from .fit import fit_history as fit_history
+from .fit_e import e_effective as e_effective
+from .fit_e import fit_e as fit_e
+from .fit_history import fit_history as fit_history
 from .problems import FACADE_BETA_MAX_HCRIT as FACADE_BETA_MAX_HCRIT
 from .problems import MODES as MODES
 from .problems import SAVE_DT as SAVE_DT

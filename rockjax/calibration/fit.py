@@ -1,7 +1,7 @@
-"""The public fits: :func:`fit_beta` (the DEM's ``beta`` to a restitution or to the facade
-bounce targets), :func:`fit_e` (the paper's direction: Housner's ``e`` of a DEM run),
-:func:`fit_history` (``beta`` and ``b`` from a measured history) and :func:`e_effective` (the
-DEM's restitution over a batch of ``beta``)."""
+"""The DEM's ``beta`` fitted, :func:`fit_beta`: to a restitution, to the facade bounce
+targets, or to Housner's history (``loss="history"``). The paper's other direction and the
+measured histories are in :mod:`rockjax.calibration.fit_e` and
+:mod:`rockjax.calibration.fit_history`."""
 
 from __future__ import annotations
 
@@ -13,54 +13,40 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import _progress, metrics
-from .._checks import check_choice, check_nonnegative, check_scalar
+from .. import _progress
+from .._checks import check_choice, check_scalar
 from ..block import Block
 from ..compilation import notice_once, persistent_jit
 from ..contact import Joint
-from ..dem import simulate_dem
-from ..housner import simulate_housner
 from ..modes import Mode, as_mode
 from ..relations import e_isr
 from ..response import STATUS_MESSAGES, STATUS_OK, Response
 from . import solvers
 from .derivatives import beta_of_u, forward_mode, loss_u
 from .problems import (
-    SAVE_DT,
     CalibrationProblem,
-    EProblem,
-    bounce_log_e,
     build_problem,
     check_range,
     check_reachable,
     concrete_block,
-    default_beta_max,
-    dem_peaks,
     dem_run,
-    history_loss,
-    history_params,
-    history_problem,
     history_stat,
     history_stat_batch,
-    housner_loss,
     last_compared_peak_time,
-    last_compared_time,
     stats,
     stats_batch,
     window_error,
 )
 from .result import (
-    MIN_ENERGY_RATIO,
     Calibration,
-    HistoryFit,
     bounce_e_exp,
     bounces_missed,
     e_missed,
-    history_missed,
     minimum_missed,
     restitution,
     verdict,
 )
+from .solvers import check_count, check_stopping
 
 METHODS = ("lbfgs", "grid", "root")
 LOSSES = ("peaks", "history")
@@ -84,24 +70,6 @@ a walk that has not ended by then is reported as not converged."""
 GAP_TOL = 1e-4
 """``fit_beta`` (``target="e"``): an L-BFGS result whose signed gap ``|log e_DEM - log e|``
 exceeds this is finished by false position on the bracketed gap."""
-
-
-def _check_count(name: str, value, least: int, default: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < least:
-        raise ValueError(
-            f"{name} must be an int >= {least}; got {name}={value!r}. The default is {default}."
-        )
-
-
-def _check_stopping(rtol, max_iter, rtol_default: float, max_iter_default: int) -> None:
-    """``rtol`` in (0, 1) and ``max_iter >= 1``, checked before any run."""
-    check_scalar("rtol", rtol, "[-]", f"The default is rtol={rtol_default:g}.")
-    if not (np.isfinite(float(rtol)) and 0.0 < float(rtol) < 1.0):
-        raise ValueError(
-            f"rtol (relative step tolerance) must lie in (0, 1); got rtol={rtol!r}. The "
-            f"default is rtol={rtol_default:g}."
-        )
-    _check_count("max_iter", max_iter, 1, max_iter_default)
 
 
 def fit_beta(
@@ -197,9 +165,9 @@ def fit_beta(
             joint=joint,
             progress=progress,
         )
-    _check_stopping(rtol, max_iter, 1e-4, 40)
-    _check_count("n_seed", n_seed, 1, 9)
-    _check_count("n_grid", n_grid, 2, 256)
+    check_stopping(rtol, max_iter, 1e-4, 40)
+    check_count("n_seed", n_seed, 1, 9)
+    check_count("n_grid", n_grid, 2, 256)
     if beta0 is not None:
         check_scalar("beta0", beta0, "s", "Leave beta0=None to seed it from a scan.")
     t_start = time.perf_counter()
@@ -629,260 +597,4 @@ def _finish(
         target_missed=target_missed,
         loss_kind=loss_kind,
         beta_start=None if history_start is None else float(history_start[0]),
-    )
-
-
-def e_effective(
-    block: Block,
-    beta,
-    *,
-    mode: Mode | str = "two_sided",
-    theta0=None,
-    n_bounces: int | None = None,
-    joint: Joint | None = None,
-    gap: float | None = None,
-    beta_max: float | None = None,
-) -> dict:
-    """The DEM's restitution at each ``beta`` [s] (an array: one vmapped batch), from free rocking.
-
-    The time step is sized as in :func:`fit_beta` with the same ``beta_max`` (default
-    ``2 beta_DeJong``, raised to cover every ``beta`` given), so the two agree run for run.
-
-    Returns a dict of NumPy arrays over ``beta``: ``"e"`` (least-squares restitution from the
-    bounce energies, the statistic :func:`fit_beta` matches; NaN with no bounce), ``"e_exp"``
-    (Eq. 6 of bounces 1-3, shape ``(n_beta, 3)``, first release amplitude; NaN for a bounce that
-    did not happen), ``"ok"`` (run status).
-    """
-    betas = np.atleast_1d(np.asarray(beta, float))
-    mode = as_mode(mode, gap)
-    if beta_max is None:
-        beta_max = default_beta_max(concrete_block(block), mode)
-    problem, _ = build_problem(
-        block,
-        e=1.0,
-        target="e",
-        mode=mode,
-        theta0=theta0,
-        n_bounces=n_bounces,
-        beta_max=max(beta_max, float(np.max(betas)) / 1.25 + 1e-15),
-        joint=joint,
-    )
-    log_e, e3, ok = _e_batch(problem, betas)
-    return {
-        "beta": betas,
-        "e": np.exp(np.asarray(log_e)),
-        "e_exp": np.asarray(e3),
-        "ok": np.asarray(ok),
-    }
-
-
-@persistent_jit
-def _e_batch(problem: CalibrationProblem, betas):
-    def one(beta):
-        pk, status = dem_peaks(problem, beta)
-        log_e = jnp.mean(jax.vmap(metrics.log_e_fit)(pk))
-        e3 = jnp.where(pk.valid[0, 1:4], jnp.exp(bounce_log_e(problem, pk))[0], jnp.nan)
-        return log_e, e3, jnp.all(status == STATUS_OK)
-
-    return jax.vmap(one)(betas)
-
-
-_e_loss = forward_mode(housner_loss)
-_h_loss = forward_mode(history_loss)
-
-
-def _e_params(v, problem: EProblem):
-    return (jax.nn.sigmoid(v),)
-
-
-def _history_params(u, problem):
-    return history_params(problem, u)
-
-
-@persistent_jit
-def _dem_peaks_jit(problem: CalibrationProblem, beta):
-    return dem_peaks(problem, beta)
-
-
-def fit_e(
-    block: Block,
-    beta: float,
-    *,
-    mode: Mode | str = "two_sided",
-    theta0=None,
-    n_bounces: int | None = None,
-    joint: Joint | None = None,
-    gap: float | None = None,
-    rtol: float = 1e-6,
-    max_iter: int = 30,
-) -> Calibration:
-    """The paper's direction: the Housner ``e`` whose free rocking best matches the DEM's at ``beta``.
-
-    Minimises the same bounce log-energy loss (:func:`rockjax.metrics.peak_loss`, DEM as the
-    reference) over ``e = sigmoid(v)`` with L-BFGS, the derivative taken in forward mode through
-    the Housner solve (``diffrax.ForwardMode``). Starts from the DEM's own least-squares
-    restitution (for free rocking Housner's bounce energies are exactly ``e^(2k) U_0``, so that
-    start is already close; the iterations confirm it on the simulated responses).
-
-    Returns:
-        A :class:`Calibration` whose ``e`` is the fitted Housner restitution; ``converged``
-        only if it is within :data:`E_TOL` of the DEM's own ``e_effective`` (NumPy peaks) and
-        finite (else ``reason`` says why: e.g. a DEM whose restitution changes from bounce to
-        bounce more than one Housner ``e`` can follow).
-
-    Raises:
-        ValueError: bad input (e.g. ``n_bounces < 1``), a failed DEM run, or a DEM that keeps
-            no bounce with :data:`MIN_ENERGY_RATIO` of its release energy (nothing to match).
-    """
-    t_start = time.perf_counter()
-    check_nonnegative(
-        "beta",
-        beta,
-        "s",
-        "beta is the DEM's stiffness-proportional damping, e.g. 2e-3.",
-        scalar=True,
-    )
-    _check_stopping(rtol, max_iter, 1e-6, 30)
-    mode = as_mode(mode, gap)
-    problem, _ = build_problem(
-        block,
-        e=1.0,
-        target="e",
-        mode=mode,
-        theta0=theta0,
-        n_bounces=n_bounces,
-        beta_max=max(float(beta), 1e-9),
-        joint=joint,
-    )
-    dem_pk, status = _dem_peaks_jit(problem, jnp.asarray(float(beta)))
-    if not bool(np.all(np.asarray(status) == STATUS_OK)):
-        raise ValueError(f"the DEM run at beta={beta} s failed; check beta and the block.")
-    log_e0 = float(np.nanmean(np.asarray(jax.vmap(metrics.log_e_fit)(dem_pk))))
-    if not np.isfinite(log_e0):
-        raise ValueError(
-            f"the DEM block at beta={beta} s does not bounce after its release (no impact "
-            "keeps 2 % of the release energy): no Housner e matches it; lower beta."
-        )
-    eproblem = EProblem(
-        block=problem.block,
-        theta0=problem.theta0,
-        dem=dem_pk,
-        mode=mode.without_gap(),  # Housner's facade stands flush on its walls
-        n_bounces=problem.n_bounces,
-        duration=problem.duration,
-        hysteresis=problem.hysteresis,
-    )
-    e0 = min(max(math.exp(log_e0), 1e-3), 1 - 1e-6)
-    v = jnp.asarray(math.log(e0 / (1 - e0)))
-    v, (e_fit,), hist, n_sims, n_iter, converged = solvers.minimize(
-        _e_loss, eproblem, v, _e_params, rtol, max_iter
-    )
-    hist_e = [e0] + [p[0] for p, _ in hist]
-    hist_l = [val for _, val in hist]
-    th0 = float(problem.theta0[0])
-    dem = dem_run(problem, float(beta), th0)
-    housner = simulate_housner(
-        problem.block,
-        e=e_fit,
-        mode=mode.without_gap(),
-        theta0=th0,
-        duration=problem.duration,
-        dt=SAVE_DT,
-    )
-    t_last = last_compared_time(housner, problem)
-    w = (np.asarray(dem.t) <= t_last).astype(float)
-    e_eff = restitution(dem, problem.n_bounces, mode)
-    loss = float(housner_loss(v, eproblem))
-    missed = e_missed(e_fit, e_eff)
-    converged, reason = verdict(converged, missed, e=e_fit, loss=loss)
-    return Calibration(
-        beta=float(beta),
-        e=e_fit,
-        e_effective=e_eff,
-        e_exp=bounce_e_exp(dem, mode),
-        loss=loss,
-        peak_loss=loss,
-        history_error=float(metrics.history_error(dem.theta, housner.theta, w)),
-        history={"e": np.asarray(hist_e[1:]), "loss": np.asarray(hist_l)},
-        n_simulations=n_sims,
-        n_iterations=n_iter,
-        converged=converged,
-        e_range=None,
-        beta_max=float(beta),
-        method="lbfgs",
-        seconds=time.perf_counter() - t_start,
-        dem=dem,
-        housner=housner,
-        reason=reason,
-        target_met=not missed,
-        target_missed="; ".join(missed),
-    )
-
-
-def fit_history(
-    block: Block,
-    measured: Response,
-    *,
-    beta0: float | None = None,
-    mode: Mode | str = "two_sided",
-    n_bounces: int = 8,
-    rtol: float = 1e-5,
-    max_iter: int = 50,
-) -> HistoryFit:
-    """Fit two DEM parameters at once, ``beta`` and the rocking width ``b``, to a measured
-    free-rocking history (released from rest at ``measured.theta[0]``).
-
-    The loss compares the bounce peaks bounce by bounce: the gap of ``log |theta_k|`` (the energy
-    lost per impact, set mostly by ``beta``) plus the gap of the peak times over the first
-    impact time (the rocking period, set by ``b`` through ``eta`` and ``p``), weights as in
-    :func:`rockjax.metrics.peak_loss`. Unknowns are scaled as ``beta = beta0 exp(u0)`` and
-    ``b = b_nominal exp(u1)``; L-BFGS with forward-mode derivatives (two tangents). A dense
-    grid over two parameters costs ``n^2`` runs; this takes tens.
-
-    Args:
-        block: The nominal block (its ``b`` is the start; ``h``, ``rho``, ``E`` are kept).
-        measured: The measured response (uniform samples; e.g. a test record as a Response).
-        beta0: Starting ``beta`` [s] (default ``0.3 beta_DeJong``).
-        mode: :class:`rockjax.Parapet` / ``"two_sided"`` or :class:`rockjax.Facade` /
-            ``"one_sided"`` (the Facade's gap [m] is the DEM's).
-        n_bounces: Bounces compared.
-
-    Returns:
-        A :class:`HistoryFit`.
-    """
-    t_start = time.perf_counter()
-    _check_stopping(rtol, max_iter, 1e-5, 50)
-    mode = as_mode(mode)
-    problem = history_problem(block, measured, beta0, mode, n_bounces)
-    block, theta0 = problem.block, float(problem.theta0)
-    t = np.asarray(measured.t, float)
-    save_dt = problem.save_dt
-    u, (beta, b), hist_raw, n_sims, n_iter, converged = solvers.minimize(
-        _h_loss, problem, jnp.zeros(2), _history_params, rtol, max_iter
-    )
-    hist = {
-        "beta": [p[0] for p, _ in hist_raw],
-        "b": [p[1] for p, _ in hist_raw],
-        "loss": [v for _, v in hist_raw],
-    }
-    fitted = eqx.tree_at(lambda k: k.b, block, b)
-    dem = simulate_dem(
-        fitted, beta=beta, mode=mode, theta0=theta0, duration=float(t[-1]), save_dt=save_dt
-    )
-    loss = float(history_loss(u, problem))
-    n_compared = int(np.sum(metrics.bounce_weights(problem.measured, MIN_ENERGY_RATIO)[0]))
-    missed = history_missed(dem, measured, n_compared, float(problem.t_scale), mode)
-    converged, reason = verdict(converged, missed, loss=loss, beta=beta, b=b)
-    return HistoryFit(
-        beta=beta,
-        b=b,
-        block=fitted,
-        loss=loss,
-        history={k: np.asarray(v) for k, v in hist.items()},
-        n_simulations=n_sims,
-        n_iterations=n_iter,
-        converged=converged,
-        seconds=time.perf_counter() - t_start,
-        dem=dem,
-        reason=reason,
     )

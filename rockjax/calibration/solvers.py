@@ -10,6 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._checks import check_scalar
 from .._lazy import lazy_module
 from ..compilation import persistent_jit
 from .problems import CalibrationProblem, stats_batch
@@ -198,3 +199,22 @@ def false_position_finish(
     return illinois(
         problem, np.array([a[0], b[0]]), np.array([a[1], b[1]]), rtol, max_iter, on_step
     )
+
+
+def check_count(name: str, value, least: int, default: int) -> None:
+    """``value`` an int >= ``least``, checked before any run."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < least:
+        raise ValueError(
+            f"{name} must be an int >= {least}; got {name}={value!r}. The default is {default}."
+        )
+
+
+def check_stopping(rtol, max_iter, rtol_default: float, max_iter_default: int) -> None:
+    """``rtol`` in (0, 1) and ``max_iter >= 1``, checked before any run."""
+    check_scalar("rtol", rtol, "[-]", f"The default is rtol={rtol_default:g}.")
+    if not (np.isfinite(float(rtol)) and 0.0 < float(rtol) < 1.0):
+        raise ValueError(
+            f"rtol (relative step tolerance) must lie in (0, 1); got rtol={rtol!r}. The "
+            f"default is rtol={rtol_default:g}."
+        )
+    check_count("max_iter", max_iter, 1, max_iter_default)
