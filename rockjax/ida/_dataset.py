@@ -66,7 +66,7 @@ def to_dataset(plan: Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
     keys = sorted({key for r in records for key, _ in r.meta})
     for key in keys:
         coords[f"meta_{key}"] = ("record", [r.metadata.get(key, "") for r in records])
-    from . import __version__  # at call time: the package sets it after importing this module
+    from .. import __version__  # at call time: the package sets it after importing this module
 
     attrs = {
         "model": config["model"],
