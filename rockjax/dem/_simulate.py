@@ -152,8 +152,8 @@ def simulate_dem(
             "rj.Assembly.stack([block])."
         )
     save = check_save(save)
-    mode = mode_of(block, mode, gap)
-    p = dem_params(block, beta, mode=mode, joint=joint, phi_deg=phi_deg)
+    mode = mode_of(block, mode, gap)  # (the gap checked with the message for the kind of body)
+    p = dem_params(assembly, beta, mode=mode, joint=joint, phi_deg=phi_deg)
     check_theta0(theta0, assembly, mode)
     if wall_motion is not None and not mode.one_sided:
         raise ValueError(
@@ -169,7 +169,7 @@ def simulate_dem(
     accuracy = check_accuracy(accuracy, mode, joint)
     n_in = steps_per_sample(p, block, beta, beta_max, mode, joint, dt, dt_out, accuracy)
     step = (np if isinstance(n_in, int) else jnp).asarray(dt_out / n_in)
-    st0 = initial_state(block, p, theta0)
+    st0 = initial_state(assembly, p, theta0)
     dt_out = np.asarray(dt_out)
     program = run_block if single else run
     if is_traced(p, st0, ag, ag_v, top, wall, step):
