@@ -250,7 +250,7 @@ def configure_cpu(*, keep_user_flags: bool = False) -> bool:
     XLA reads ``XLA_FLAGS`` once, when JAX's backend starts (at the first JAX computation), so
     call this before that, e.g. right after ``import rockjax``; the flags already there are
     kept. ``import rockjax`` calls it with ``keep_user_flags=True``; the ``rockjax`` command,
-    the benchmarks and the test suite call it as is. ``ROCKJAX_NO_XLA_TUNING=1`` turns it off.
+    the speed benchmarks and the test suite call it as is. ``ROCKJAX_NO_XLA_TUNING=1`` turns it off.
     The variable is changed in ``os.environ``, so processes started afterwards inherit it.
 
     Args:
