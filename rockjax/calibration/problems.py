@@ -251,7 +251,7 @@ def concrete_block(block: Block) -> Block:
     """``block`` with Python floats (ValueError for traced values: a fit is not traced)."""
     try:
         return jax.tree.map(lambda x: float(np.asarray(x)), block)
-    except Exception:
+    except TypeError:  # a tracer (TracerArrayConversionError, ConcretizationTypeError)
         raise ValueError(
             "fit_beta/fit_e need a concrete Block (Python floats), not traced values."
         ) from None

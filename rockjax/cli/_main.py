@@ -9,7 +9,7 @@ import sys
 from collections.abc import Sequence
 
 from .. import __version__
-from ..compilation import enable_cache
+from ..compilation import configure_cpu, enable_cache
 from ._calibrate import add_calibrate_parser
 from ._demo import add_demo_parser
 from ._ida import add_ida_parser
@@ -31,6 +31,7 @@ def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
     args = parser.parse_args(None if argv is None else [os.fspath(a) for a in argv])
     if argv is None:  # run as the command (not called from Python): reuse compiled programs
         enable_cache()
+        configure_cpu()  # XLA:CPU's option for the time loops, with the user's XLA_FLAGS too
     try:
         return args.run(args)
     except ValueError as err:
