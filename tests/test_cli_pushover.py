@@ -6,12 +6,11 @@ runs Housner with that law. Bad options are one ``error: ...`` line (exit status
 Short curves (60 samples) of the 0.2 x 1.5 m block: the pushover compiles once per body."""
 
 import json
-import re
 
 import numpy as np
 import pandas as pd
 import pytest
-from helpers import run_cli
+from helpers import assert_refused, assert_same_table, run_cli
 
 import rockjax as rj
 from rockjax.constants import G
@@ -21,12 +20,6 @@ CSV_ATOL = 1e-12  # [the column's unit]: the curve's first sample is zero up to 
 LAW_RTOL = 1e-9  # the JSON's law is the fit of the same curve
 B, H, N_OUT = 0.2, 1.5, 60
 LAW = ("lambda_0", "Delta_1", "Delta_2", "Delta_u")
-
-
-def _same(df, ref):
-    assert list(df.columns) == list(ref.columns)
-    np.testing.assert_allclose(df.index.to_numpy(), ref.index.to_numpy(), rtol=CSV_RTOL)
-    np.testing.assert_allclose(df.to_numpy(), ref.to_numpy(), rtol=CSV_RTOL, atol=CSV_ATOL)
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +40,9 @@ def test_block_curve_and_fit(block_pushover):
         "pushover.png",
     ]
     assert (out / "pushover.png").stat().st_size > 10_000
-    _same(pd.read_csv(out / "pushover.csv", index_col=0), cap.to_dataframe())
+    assert_same_table(
+        pd.read_csv(out / "pushover.csv", index_col=0), cap.to_dataframe(), CSV_RTOL, CSV_ATOL
+    )
     with open(out / "pushover.json") as f:
         res = json.load(f)
     fit = rj.fit_three_branch(cap)
@@ -83,7 +78,7 @@ def test_stack_restrained(tmp_path):
     stack = rj.Assembly.stack([rj.Block(b=B, h=H / 2)] * 2, top="restrained")
     cap = rj.pushover(stack, n_out=N_OUT)
     df = pd.read_csv(out / "pushover.csv", index_col=0)
-    _same(df, cap.to_dataframe())
+    assert_same_table(df, cap.to_dataframe(), CSV_RTOL, CSV_ATOL)
     assert {"theta_0 [rad]", "theta_1 [rad]"} <= set(df.columns)
     with open(out / "pushover.json") as f:
         res = json.load(f)
@@ -111,8 +106,4 @@ def test_stack_restrained(tmp_path):
 )
 def test_bad_options_are_one_error_line(tmp_path, args, match):
     out = tmp_path / "out"
-    rc, _, stderr = run_cli(["pushover", *args, "--out", out])
-    assert rc == 2
-    assert stderr.startswith("error: ") and stderr.count("\n") == 1, stderr
-    assert re.search(match, stderr), stderr
-    assert not out.exists()
+    assert_refused(["pushover", *args], match, out)

@@ -3,24 +3,17 @@
 and JSON are written, and bad options are one ``error: ...`` line (exit status 2)."""
 
 import json
-import re
 
 import numpy as np
 import pandas as pd
 import pytest
-from helpers import run_cli
+from helpers import assert_refused, assert_same_table, run_cli
 
 import rockjax as rj
 from rockjax.constants import G
 
 CSV_RTOL = 1e-9  # the CSV holds 12 significant digits of the same computation
 CSV_ATOL = 1e-14  # [the column's unit]: Sd and Sv are 0 at T = 0
-
-
-def _same(df, ref):
-    assert list(df.columns) == list(ref.columns)
-    np.testing.assert_allclose(df.index.to_numpy(), ref.index.to_numpy(), rtol=CSV_RTOL)
-    np.testing.assert_allclose(df.to_numpy(), ref.to_numpy(), rtol=CSV_RTOL, atol=CSV_ATOL)
 
 
 def test_spectrum_of_a_pulse(tmp_path):
@@ -37,7 +30,7 @@ def test_spectrum_of_a_pulse(tmp_path):
     df = pd.read_csv(out / "spectrum.csv", index_col=0)
     gm = rj.pulses.pulse("AR", 0.3 * G, 0.5)
     spec = rj.response_spectrum(gm, np.linspace(0.0, 2.0, 41), 0.02)
-    _same(df, spec.to_dataframe())
+    assert_same_table(df, spec.to_dataframe(), CSV_RTOL, CSV_ATOL)
     with open(out / "spectrum.json") as f:
         res = json.load(f)
     sa = np.asarray(spec.sa)
@@ -73,7 +66,7 @@ def test_floor_spectra_of_a_csv_record(tmp_path):
         ],
         axis=1,
     )
-    _same(df, expect)
+    assert_same_table(df, expect, CSV_RTOL, CSV_ATOL)
     assert stdout.count("peak Sa") == 4
 
 
@@ -91,11 +84,7 @@ def test_floor_spectra_of_a_csv_record(tmp_path):
 def test_bad_options_are_one_error_line(tmp_path, args, match):
     out = tmp_path / "out"
     argv = ["spectrum", "--pulse", "MH", "--pga-g", 0.3, "--pulse-period", 0.4, *args]
-    rc, _, stderr = run_cli([*argv, "--out", out])
-    assert rc == 2
-    assert stderr.startswith("error: ") and stderr.count("\n") == 1, stderr
-    assert re.search(match, stderr), stderr
-    assert not out.exists()
+    assert_refused(argv, match, out)
 
 
 def test_a_record_or_a_pulse_is_required(tmp_path):

@@ -11,7 +11,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from .._checks import concrete
-from ..response import STATUS_MESSAGES, Response
+from ..response import STATUS_MESSAGES, Response, one_run_times
 
 
 class AssemblyResponse(eqx.Module):
@@ -102,16 +102,7 @@ class AssemblyResponse(eqx.Module):
         """
         import pandas as pd
 
-        t = concrete(self.t)
-        if t is None:
-            raise ValueError(
-                "AssemblyResponse.to_dataframe needs concrete values: call it outside jit/vmap."
-            )
-        if t.ndim != 1:
-            raise ValueError(
-                f"AssemblyResponse.to_dataframe takes one run; this one holds a batch (t has "
-                f"shape {t.shape}). Pick run i first: jax.tree.map(lambda x: x[i], resp)."
-            )
+        t = one_run_times(self)
         theta, eta = concrete(self.theta), concrete(self.eta)
         n = theta.shape[-1]
         per_block = {
