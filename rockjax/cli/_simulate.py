@@ -49,7 +49,8 @@ from ._options import (
     outputs_of,
 )
 
-MODELS = ("dem", "housner", "three-branch")
+MODEL_NAMES = {"dem": "DEM", "housner": "Housner", "three-branch": "Housner, three-branch law"}
+MODELS = tuple(MODEL_NAMES)  # --model
 TAIL = 2.0  # [s] of free rocking after a record, by default (as rockjax ida)
 
 
@@ -184,7 +185,7 @@ def _simulate(args: argparse.Namespace) -> int:
         f"peak |theta|/eta = {ratio:.4f}  (theta_max = {float(resp.theta_max):.5g} rad, eta = alpha = {eta:.5g} rad)"
     )
     print(f"overturned       = {'YES' if bool(resp.overturned) else 'no'}")
-    print(f"model            = {df.attrs['model']}, time step {step:.3g} s")
+    print(f"model            = {MODEL_NAMES[setup.model]}, time step {step:.3g} s")
     print(
         f"wrote {', '.join(files.names)} to {files.folder}/ in "
         f"{time.perf_counter() - t_start:.1f} s",
@@ -411,7 +412,7 @@ def _run(setup: Setup) -> Response:
 
 def _figure(setup: Setup, resp: Response, path: Path) -> None:
     title = f"{block_text(setup.block)} {setup.mode.name.replace('_', '-')} block, {setup.model}"
-    label = {"dem": "DEM", "housner": "Housner", "three-branch": "three-branch"}[setup.model]
+    label = MODEL_NAMES[setup.model]
     if setup.base is None:
         ax = plot.time_history({label: resp}, title=f"{title}, free rocking")
         save(ax, path)
@@ -434,7 +435,12 @@ def _model_text(setup: Setup) -> str:
     if setup.model == "dem":
         default = " = beta_DeJong, uncalibrated" if p["beta_default"] else ""
         return f"DEM (beta = {p['beta']:.4g} s{default}; {joint_text(p['joint'])})"
-    e = "e default (Eq. 2 / 5)" if p["e"] is None else f"e = {p['e']:g}"
+    if p["e"] is None:  # the simulator's default, named
+        mode = setup.mode
+        e_default = mode.e_magnitude(float(mode.default_e(setup.block)))
+        e = f"e = {e_default:.4g}, " + ("|e_1SR| (Eq. 5)" if mode.one_sided else "e_H (Eq. 2)")
+    else:
+        e = f"e = {p['e']:g}"
     if setup.model == "housner":
         return f"Housner ({e})"
     law = p["law"]
