@@ -148,8 +148,8 @@ def _read_record(args: argparse.Namespace) -> GroundMotion:
         if path.suffix.upper() == ".AT2":
             if args.units is not None or args.column is not None:
                 raise ValueError(
-                    "a PEER .AT2 file states its units and holds one column; drop --units and "
-                    "--column."
+                    f"{path}: a PEER .AT2 file states its units and holds one column; drop "
+                    "--units and --column."
                 )
             return read_at2(path)
         column = args.column

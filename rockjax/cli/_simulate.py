@@ -127,8 +127,8 @@ class Setup:
     block: Block
     mode: Mode
     model: str
-    motion: GroundMotion | None  # the ground's
-    base: GroundMotion | None  # what the block stands on: the ground, or a floor
+    motion: GroundMotion | None  # the ground's, as given
+    base: GroundMotion | None  # what the block stands on for the whole run: the ground, or a floor
     wall_motion: object  # a facade's moving return walls, or None
     building: ShearBuilding | None
     storey: int | None
@@ -227,7 +227,7 @@ def _setup(args: argparse.Namespace) -> Setup:
             "--pulse-period); or, for free rocking, --theta0 FRAC and --duration S."
         )
     building = building_of(args)
-    duration = args.duration
+    duration, ground = args.duration, motion
     if motion is not None:
         # the run's record: the ground's, padded with zeros (or cut) to the run's length, so
         # that a building's floors and walls keep moving after the ground stops
@@ -235,9 +235,9 @@ def _setup(args: argparse.Namespace) -> Setup:
         n = int(round(duration / motion.dt)) + 1
         ag = np.zeros(n)
         ag[: min(n, motion.n)] = np.asarray(motion.ag)[:n]
-        motion = GroundMotion(ag=ag, dt=motion.dt, name=motion.name, meta=motion.meta)
+        ground = GroundMotion(ag=ag, dt=motion.dt, name=motion.name, meta=motion.meta)
         duration = None  # the record's
-    base, walls, storey = _placement(args, building, motion, mode)
+    base, walls, storey = _placement(args, building, ground, mode)
     return Setup(
         block=block,
         mode=mode,
