@@ -216,6 +216,35 @@ class RotDSpectrum(eqx.Module):
             sa=jnp.percentile(self.sa_angles, percentile, axis=-2),
         )
 
+    def to_dataframe(self):
+        """RotD50 and RotD100 as a ``pandas.DataFrame``, one row per period.
+
+        The index is ``"T [s]"``; the columns are :meth:`Spectrum.to_dataframe`'s of
+        :attr:`rotd50` and of :attr:`rotd100`, suffixed ``" RotD50"`` and ``" RotD100"``
+        (``"Sa [g] RotD50"``); ``df.attrs`` holds ``damping [-]`` and ``n_angles``. Write it
+        with ``df.to_csv(path)``.
+
+        Returns:
+            The ``pandas.DataFrame``.
+
+        Raises:
+            ValueError: inside ``jit``/``vmap``, or for a batch of spectra.
+        """
+        import pandas as pd
+
+        if np.ndim(self.sd_angles) != 2:
+            raise ValueError(
+                "RotDSpectrum.to_dataframe takes the spectra of one pair of components; "
+                f"sd_angles has shape {np.shape(self.sd_angles)}. Index one pair first."
+            )
+        parts = [
+            spec.to_dataframe().add_suffix(f" {name}")
+            for name, spec in (("RotD50", self.rotd50), ("RotD100", self.rotd100))
+        ]
+        df = pd.concat(parts, axis=1)
+        df.attrs.update(parts[0].attrs, n_angles=int(np.shape(self.angles)[0]))
+        return df
+
     @property
     def rotd50(self) -> Spectrum:
         """RotD50: the median over the angles."""

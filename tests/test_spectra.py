@@ -288,3 +288,16 @@ def test_spectrum_to_dataframe():
         two.to_dataframe(["ground"])
     with pytest.raises(ValueError, match="this one is 1-D"):
         spec.to_dataframe(["ground"])
+
+
+def test_rotd_spectrum_to_dataframe():
+    """RotD50 and RotD100 side by side; RotD100 >= RotD50 at every period (a maximum over
+    the angles against their median)."""
+    gx = rj.GroundMotion.ricker(pga_g=0.3, period=0.4)
+    gy = rj.GroundMotion.sine_cycle(pga_g=0.2, period=0.3, duration=gx.duration)
+    rot = rj.rotd_spectrum(gx, gy, [0.0, 0.2, 0.5], n_angles=18)
+    df = rot.to_dataframe()
+    np.testing.assert_array_equal(df["Sd [m] RotD50"], np.asarray(rot.rotd50.sd))
+    np.testing.assert_array_equal(df["Sa [g] RotD100"], np.asarray(rot.rotd100.sa) / G)
+    assert np.all(df["Sa [g] RotD100"] >= df["Sa [g] RotD50"])
+    assert df.attrs == {"damping [-]": 0.05, "n_angles": 18} and len(df.columns) == 8
