@@ -144,6 +144,9 @@ def _pushover(args: argparse.Namespace) -> int:
     ax.set_title(f"{what}, {mode.name.replace('_', '-')}", fontsize="medium")
     save(ax, files.figure)
     peak = _peak(cap)
+    beta = args.beta
+    if beta is None and not isinstance(body, Assembly):
+        beta = float(beta_dejong(body))  # rj.pushover's default for a block
     summary = {
         "rockjax_version": __version__,
         "command": command_line("pushover", args),
@@ -153,9 +156,7 @@ def _pushover(args: argparse.Namespace) -> int:
         "mode": mode.name,
         "gap_m": float(getattr(mode, "gap", 0.0)),
         "overburden_n_m": args.overburden,
-        "beta_s": float(beta_dejong(body))
-        if args.beta is None and not isinstance(body, Assembly)
-        else args.beta,  # fmt: skip
+        "beta_s": beta,  # None: a stack's default, its blocks' smallest beta_DeJong
         "joint": {"n_sub": joint.n_sub, "shear_release": joint.shear_release},
         "lambda_rigid": float(cap.lambda_rigid),
         **peak,

@@ -148,19 +148,48 @@ def _simulate(args: argparse.Namespace) -> int:
     )
     resp = _run(setup)
     files.folder.mkdir(parents=True, exist_ok=True)
+    _write_csv(setup, resp, files.csv)
+    _figure(setup, resp, files.figure)
+    summary = _summary(setup, args, resp) | {"files": files.names}
+    jsonio.write_json(files.summary, summary)
+    ratio, step = summary["theta_max_over_eta"], summary["dt_step_s"]
+    print(
+        f"peak |theta|/eta = {ratio:.4f}  (theta_max = {summary['theta_max_rad']:.5g} rad, "
+        f"eta = alpha = {float(resp.eta):.5g} rad)"
+    )
+    print(f"overturned       = {'YES' if summary['overturned'] else 'no'}")
+    print(f"model            = {MODEL_NAMES[setup.model]}, time step {step:.3g} s")
+    print(
+        f"wrote {', '.join(files.names)} to {files.folder}/ in "
+        f"{time.perf_counter() - t_start:.1f} s",
+        flush=True,
+    )
+    if summary["status"] != 0:
+        print(
+            f"error: the run failed (status {summary['status']}: {summary['status_message']}); "
+            "the files hold the history up to the failure.",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
+
+
+def _write_csv(setup: Setup, resp: Response, path: Path) -> None:
+    """:meth:`rockjax.Response.to_dataframe`, with the base's absolute acceleration as run
+    (``ag [m/s^2]``, zero after the record) in front."""
     df = resp.to_dataframe()
     ag = np.zeros(len(df))
     if setup.base is not None:
         n = min(len(df), setup.base.n)
         ag[:n] = np.asarray(setup.base.ag)[:n]
-    df.insert(0, "ag [m/s^2]", ag)  # the base's absolute acceleration as run
-    df.to_csv(files.csv, float_format="%.12g")
-    _figure(setup, resp, files.figure)
-    eta = float(resp.eta)
-    ratio = float(resp.theta_max) / eta
+    df.insert(0, "ag [m/s^2]", ag)
+    df.to_csv(path, float_format="%.12g")
+
+
+def _summary(setup: Setup, args: argparse.Namespace, resp: Response) -> dict:
+    """``simulate.json``: the inputs and the run's peak, collapse flag, status and step."""
     status = int(resp.status)
-    step = float(np.asarray(resp.extras.get("dt", math.nan)))
-    summary = {
+    return {
         "rockjax_version": __version__,
         "command": command_line("simulate", args),
         "block": block_info(setup.block),
@@ -173,32 +202,12 @@ def _simulate(args: argparse.Namespace) -> int:
         "theta0_over_eta": args.theta0,
         "duration_s": float(np.asarray(resp.t)[-1]),
         "theta_max_rad": float(resp.theta_max),
-        "theta_max_over_eta": ratio,
+        "theta_max_over_eta": float(resp.theta_max) / float(resp.eta),
         "overturned": bool(resp.overturned),
         "status": status,
         "status_message": STATUS_MESSAGES.get(status, "unknown status"),
-        "dt_step_s": step,
-        "files": files.names,
+        "dt_step_s": float(np.asarray(resp.extras.get("dt", math.nan))),
     }
-    jsonio.write_json(files.summary, summary)
-    print(
-        f"peak |theta|/eta = {ratio:.4f}  (theta_max = {float(resp.theta_max):.5g} rad, eta = alpha = {eta:.5g} rad)"
-    )
-    print(f"overturned       = {'YES' if bool(resp.overturned) else 'no'}")
-    print(f"model            = {MODEL_NAMES[setup.model]}, time step {step:.3g} s")
-    print(
-        f"wrote {', '.join(files.names)} to {files.folder}/ in "
-        f"{time.perf_counter() - t_start:.1f} s",
-        flush=True,
-    )
-    if status != 0:
-        print(
-            f"error: the run failed (status {status}: {summary['status_message']}); the files "
-            "hold the history up to the failure.",
-            file=sys.stderr,
-        )
-        return 1
-    return 0
 
 
 # ----------------------------------------------------------------------------- checks

@@ -110,8 +110,14 @@ def _spectrum(args: argparse.Namespace) -> int:
     peaks = []
     for label, row in zip(labels, sa, strict=True):
         k = int(np.argmax(row))
-        peaks.append({"motion": label, "pga_g": float(row[0]) / G if periods[0] == 0 else None,
-                      "sa_max_g": float(row[k]) / G, "t_at_sa_max_s": float(periods[k])})  # fmt: skip
+        peaks.append(
+            {
+                "motion": label,
+                "pga_g": float(row[0]) / G if periods[0] == 0 else None,
+                "sa_max_g": float(row[k]) / G,
+                "t_at_sa_max_s": float(periods[k]),
+            }
+        )
         pga = "" if periods[0] != 0 else f"PGA {float(row[0]) / G:.4g} g, "
         print(f"{label:<9s} {pga}peak Sa = {float(row[k]) / G:.4g} g at T = {periods[k]:.4g} s")
     summary = {
@@ -122,7 +128,7 @@ def _spectrum(args: argparse.Namespace) -> int:
             "pga_g": float(motion.pga_g),
             "dt_s": motion.dt,
             "duration_s": motion.duration,
-        },  # fmt: skip
+        },
         "damping": args.damping,
         "periods_s": periods,
         "building": None
@@ -131,7 +137,7 @@ def _spectrum(args: argparse.Namespace) -> int:
             "n_storeys": building.n_storeys,
             "periods_s": np.asarray(building.periods),
             "damping": float(building.damping),
-        },  # fmt: skip
+        },
         "peaks": peaks,
         "files": files.names,
     }
