@@ -649,7 +649,8 @@ def pushover(capacity, fit=None, ax=None, *, x: str = "d_over_b", title: str | N
         grid = np.linspace(0.0, max(float(np.max(np.abs(d_over_b))), 1e-9), 301)
         at = np.interp(grid, np.abs(d_over_b), abscissa) if x == "theta" else grid
         label = (
-            rf"three-branch: $\Delta_1$ = {float(law.Delta_1):.3g}, $\Delta_2$ = "
+            rf"three-branch: $\lambda_0$ = {float(law.lambda_0):.3g}, "
+            rf"$\Delta_1$ = {float(law.Delta_1):.3g}, $\Delta_2$ = "
             rf"{float(law.Delta_2):.3g}, $\Delta_u$ = {float(law.Delta_u):.3g}"
         )
         ax.plot(at, np.asarray(law.load_multiplier(grid)), color="C3", ls="--", lw=1.4, label=label)
