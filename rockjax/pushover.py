@@ -24,6 +24,7 @@ from ._checks import (
     check_kind,
     check_nonnegative,
     check_positive,
+    concrete,
     warn_implausible,
 )
 from .assembly import Assembly, limit_analysis
@@ -102,6 +103,57 @@ class Capacity(eqx.Module):
     overburden: Float[Array, ""]
     t: Float[Array, " sample"]
     theta_blocks: Float[Array, "sample block"] | None = None
+
+    def to_dataframe(self):
+        """The curve as a ``pandas.DataFrame``, one row per sample of the pull.
+
+        The index is ``"t [s]"`` (time from the start of pulling); the columns carry their
+        units in their names: ``"d/b [-]"``, ``"d [m]"`` (``d_over_b * b``),
+        ``"lambda [-]"`` (the load multiplier, ``a/g``), ``"theta [rad]"`` and, for an
+        assembly, ``"theta_<k> [rad]"`` per block ``k`` (0 the bottom one). ``df.attrs``
+        holds the curve's scalars: ``lambda_rigid [-]``, ``b [m]``, ``h [m]``,
+        ``overburden [N/m]`` and ``n_blocks``. Write it with ``df.to_csv(path)``.
+
+        Returns:
+            The ``pandas.DataFrame``.
+
+        Raises:
+            ValueError: inside ``jit``/``vmap`` (the values must be concrete).
+        """
+        import pandas as pd
+
+        t = concrete(self.t)
+        if t is None or t.ndim != 1:
+            raise ValueError(
+                "Capacity.to_dataframe needs one concrete curve: call it outside jit/vmap on "
+                f"the Capacity of one pushover (t has shape {np.shape(self.t)})."
+            )
+        b = float(concrete(self.b))
+        columns = {
+            "d/b [-]": self.d_over_b,
+            "d [m]": concrete(self.d_over_b) * b,
+            "lambda [-]": self.load_multiplier,
+            "theta [rad]": self.theta,
+        }
+        n_blocks = 1
+        if self.theta_blocks is not None:
+            blocks = concrete(self.theta_blocks)
+            n_blocks = blocks.shape[-1]
+            columns |= {f"theta_{k} [rad]": blocks[:, k] for k in range(n_blocks)}
+        df = pd.DataFrame(
+            {name: np.asarray(v, dtype=float) for name, v in columns.items()},
+            index=pd.Index(t, name="t [s]"),
+        )
+        df.attrs.update(
+            {
+                "lambda_rigid [-]": float(concrete(self.lambda_rigid)),
+                "b [m]": b,
+                "h [m]": float(concrete(self.h)),
+                "overburden [N/m]": float(concrete(self.overburden)),
+                "n_blocks": n_blocks,
+            }
+        )
+        return df
 
     def rigid_load_multiplier(self, theta) -> Float[Array, "..."]:
         r"""The rigid block's ``lambda`` at rotation ``theta`` [rad] (virtual work about the toe):

@@ -13,6 +13,9 @@ from ..compilation import configure_cpu, enable_cache
 from ._calibrate import add_calibrate_parser
 from ._demo import add_demo_parser
 from ._ida import add_ida_parser
+from ._pushover import add_pushover_parser
+from ._simulate import add_simulate_parser
+from ._spectrum import add_spectrum_parser
 
 
 def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
@@ -62,4 +65,7 @@ def _parser() -> argparse.ArgumentParser:
     add_demo_parser(sub)
     add_ida_parser(sub)
     add_calibrate_parser(sub)
+    add_simulate_parser(sub)
+    add_spectrum_parser(sub)
+    add_pushover_parser(sub)
     return parser
