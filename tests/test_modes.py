@@ -224,3 +224,34 @@ def test_campaign_case_keeps_the_name_and_gap():
         ("one_sided", "dem"): GAP,
         ("one_sided", "housner"): 0.0,  # Housner's facade has no gap
     }
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [dict(mode="one_sided"), dict(mode=rj.Facade(gap=GAP)), dict(mode="two_sided", gap=GAP)],
+)
+def test_pushover_of_an_assembly_converts_the_mode_once_and_names_the_fix(kwargs):
+    """An assembly stands on the ground with its own restraint: a facade mode, or a gap given
+    apart, is refused before any run, with one fix (mode='two_sided', gap=0), not the facade
+    fix that would be refused next."""
+    wall = rj.Assembly.stack([BLOCK, BLOCK])
+    with pytest.raises(ValueError, match=r"own top support; leave mode='two_sided' and gap=0"):
+        rj.pushover(wall, **kwargs)
+
+
+def test_calibration_target_is_checked_once_at_the_edge():
+    """rj.calibration.check_target resolves None to the mode's default target and refuses a
+    target that does not fit e and the mode; fit_beta and problem call it once."""
+    check = rj.calibration.check_target
+    assert check(None, 0.9, rj.Parapet()) == "e"
+    assert check(None, None, rj.Facade()) == "bounces"
+    assert check("e", 0.5, rj.Facade()) == "e"
+    with pytest.raises(ValueError, match=r"\btarget\b must be one of \['bounces', 'e'\]"):
+        check("E", 0.9, rj.Parapet())
+    with pytest.raises(ValueError, match=r"target='bounces' is the facade.*one_sided"):
+        check("bounces", None, rj.Parapet())
+    with pytest.raises(ValueError, match=r"by default.*drop e, or pass target='e'"):
+        check(None, 0.5, rj.Facade())
+    with pytest.raises(ValueError, match=r"needs the target restitution e"):
+        check("e", None, rj.Parapet())
+    assert rj.calibration.TARGETS == ("e", "bounces")
