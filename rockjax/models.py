@@ -296,6 +296,5 @@ def takes_assembly(model: Model, block) -> None:
     """Refuse an :class:`rockjax.Assembly` for a rigid model (one block only)."""
     if isinstance(block, Assembly) and model.rigid:
         raise ValueError(
-            f"an Assembly runs with model='dem' only; got model={model.name!r}. Pass "
-            "model=rj.DEM(beta=...)."
+            f"an Assembly runs with the DEM only, model=rj.DEM(beta=...); got model={model.name!r}."
         )

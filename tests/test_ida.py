@@ -443,7 +443,7 @@ def test_assembly_ida_equals_single_runs():
         theta = float(np.max(np.asarray(r.theta_max) / np.asarray(r.eta)))
         assert float(ds.max_theta_over_eta[0, j]) == pytest.approx(theta, rel=1e-9)
         assert bool(ds.collapse[0, j]) == bool(r.overturned)
-    with pytest.raises(ValueError, match="Assembly runs with model='dem'"):
+    with pytest.raises(ValueError, match=r"Assembly runs with the DEM only, model=rj\.DEM\(beta="):
         rj.ida(wall, [rec], [1.0], model=rj.Housner(), progress=False)
 
 
