@@ -48,6 +48,10 @@ from .fragility import fragility as fragility  # noqa: E402
 from .housner import simulate_housner as simulate_housner  # noqa: E402
 from .ida import collapse_intervals as collapse_intervals  # noqa: E402
 from .ida import ida as ida  # noqa: E402
+from .models import DEM as DEM  # noqa: E402
+from .models import Housner as Housner  # noqa: E402
+from .models import ThreeBranch as ThreeBranch  # noqa: E402
+from .models import as_model as as_model  # noqa: E402
 from .modes import Facade as Facade  # noqa: E402
 from .modes import Parapet as Parapet  # noqa: E402
 from .modes import as_mode as as_mode  # noqa: E402
@@ -87,18 +91,22 @@ __all__ = [
     "Block",
     "Calibration",
     "Capacity",
+    "DEM",
     "Facade",
     "Fragility",
     "GroundMotion",
+    "Housner",
     "Joint",
     "LimitAnalysis",
     "Parapet",
     "PlausibilityWarning",
     "Response",
     "ShearBuilding",
+    "ThreeBranch",
     "ThreeBranchFit",
     "ThreeBranchLaw",
     "as_mode",
+    "as_model",
     "beta_dejong",
     "beta_hcrit",
     "beta_isr",

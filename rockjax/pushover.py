@@ -21,6 +21,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ._checks import (
+    GAP_NEEDS_ONE_SIDED,
     check_kind,
     check_nonnegative,
     check_positive,
@@ -173,6 +174,13 @@ class Capacity(eqx.Module):
         return (b * c - h * s + psi * (b * c - 2.0 * h * s)) / (h * c + b * s)
 
 
+ASSEMBLY_STANDS = (
+    "an Assembly stands on the ground with its own top support; leave mode='two_sided' and "
+    "gap=0 (set the restraint's clearance with Assembly.stack(top=, gap=))."
+)
+"""Why :func:`pushover` refuses a facade mode or a gap for an assembly, and the fix."""
+
+
 def pushover(
     block: Block | Assembly,
     mode: Mode | str = "two_sided",
@@ -253,12 +261,12 @@ def pushover(
         )
     if not (isinstance(n_out, int) and not isinstance(n_out, bool) and n_out >= 2):
         raise ValueError(f"n_out (output samples) must be an integer >= 2; got n_out={n_out!r}.")
+    # the mode object, converted once (an assembly's top restraint has its own clearance)
+    unused = ASSEMBLY_STANDS if isinstance(block, Assembly) else GAP_NEEDS_ONE_SIDED
+    mode = as_mode(mode, gap, unused=unused)
     if isinstance(block, Assembly):
-        if as_mode(mode).one_sided or (gap is not None and gap != 0.0):
-            raise ValueError(
-                f"mode={mode!r}, gap={gap!r}: an Assembly stands on the ground with its own top "
-                "support; leave mode='two_sided' and gap=0 (set Assembly.stack(top=, gap=))."
-            )
+        if mode.one_sided:
+            raise ValueError(f"mode={mode!r}: {ASSEMBLY_STANDS}")
         if overburden != 0.0:
             raise ValueError(
                 f"overburden={overburden!r} N/m: an Assembly carries its own overburden; build "
@@ -280,7 +288,6 @@ def pushover(
         "The load per metre of wall length at the top.",
         scalar=True,
     )
-    mode = as_mode(mode, gap)
     if beta is None:
         beta = float(beta_dejong(block))
     p = float(block.p)
