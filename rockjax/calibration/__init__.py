@@ -39,59 +39,58 @@ each ``e_exp`` in its band of :data:`BOUNCE_BANDS`), measured on the DEM's saved
 NumPy peak finder independent of the loss (:func:`rockjax.response.bounce_peaks`, also behind
 ``Response.e_exp``); ``reason`` and ``target_missed`` say what was missed.
 
-**Layout.** :mod:`~rockjax.calibration.problems` (the public problem objects,
-:func:`problem`, :func:`stats`, :func:`dem_run`, :func:`housner_reference`),
-:mod:`~rockjax.calibration.derivatives` (the forward-mode ``custom_vjp``),
-:mod:`~rockjax.calibration.solvers` (L-BFGS, grid, Illinois false position),
-:mod:`~rockjax.calibration.result` (:class:`Calibration`, :class:`HistoryFit`, the tolerances and
-the verdict), :mod:`~rockjax.calibration.fit` (:func:`fit_beta`),
-:mod:`~rockjax.calibration.fit_e` (:func:`fit_e`, :func:`e_effective`) and
-:mod:`~rockjax.calibration.fit_history` (:func:`fit_history`).
+**Layout** (private modules, their public names re-exported here): ``_problems.py`` (the
+public problem objects, :func:`problem`, :func:`stats`, :func:`dem_run`,
+:func:`housner_reference`), ``_derivatives.py`` (the forward-mode ``custom_vjp``),
+``_solvers.py`` (L-BFGS, grid, Illinois false position), ``_result.py`` (:class:`Calibration`,
+:class:`HistoryFit`, the tolerances and the verdict), ``_fit.py`` (:func:`fit_beta`),
+``_fit_e.py`` (:func:`fit_e`, :func:`e_effective`) and ``_fit_history.py``
+(:func:`fit_history`).
 """
 
-from .fit import GAP_TOL as GAP_TOL
-from .fit import HISTORY_SPAN as HISTORY_SPAN
-from .fit import HISTORY_STEP as HISTORY_STEP
-from .fit import LOSSES as LOSSES
-from .fit import METHODS as METHODS
-from .fit import fit_beta as fit_beta
-from .fit_e import e_effective as e_effective
-from .fit_e import fit_e as fit_e
-from .fit_history import fit_history as fit_history
-from .problems import FACADE_BETA_MAX_HCRIT as FACADE_BETA_MAX_HCRIT
-from .problems import MODES as MODES
-from .problems import SAVE_DT as SAVE_DT
-from .problems import TARGETS as TARGETS
-from .problems import CalibrationProblem as CalibrationProblem
-from .problems import EProblem as EProblem
-from .problems import HistoryProblem as HistoryProblem
-from .problems import check_target as check_target
-from .problems import default_target as default_target
-from .problems import dem_run as dem_run
-from .problems import history_loss as history_loss
-from .problems import history_problem as history_problem
-from .problems import history_stat as history_stat
-from .problems import history_stat_batch as history_stat_batch
-from .problems import housner_reference as housner_reference
-from .problems import last_compared_time as last_compared_time
-from .problems import problem as problem
-from .problems import stats as stats
-from .problems import stats_batch as stats_batch
-from .problems import window_error as window_error
-from .result import BOUNCE_BANDS as BOUNCE_BANDS
-from .result import BOUNCE_FRACTIONS as BOUNCE_FRACTIONS
-from .result import E_TOL as E_TOL
-from .result import HISTORY_TOL as HISTORY_TOL
-from .result import MIN_ENERGY_RATIO as MIN_ENERGY_RATIO
-from .result import Calibration as Calibration
-from .result import HistoryFit as HistoryFit
-from .result import bounce_peaks as bounce_peaks
-from .result import bounces_missed as bounces_missed
-from .result import e_missed as e_missed
-from .result import history_missed as history_missed
-from .result import history_peak_gap as history_peak_gap
-from .result import minimum_missed as minimum_missed
-from .result import verdict as verdict
+from ._fit import GAP_TOL as GAP_TOL
+from ._fit import HISTORY_SPAN as HISTORY_SPAN
+from ._fit import HISTORY_STEP as HISTORY_STEP
+from ._fit import LOSSES as LOSSES
+from ._fit import METHODS as METHODS
+from ._fit import fit_beta as fit_beta
+from ._fit_e import e_effective as e_effective
+from ._fit_e import fit_e as fit_e
+from ._fit_history import fit_history as fit_history
+from ._problems import FACADE_BETA_MAX_HCRIT as FACADE_BETA_MAX_HCRIT
+from ._problems import MODES as MODES
+from ._problems import SAVE_DT as SAVE_DT
+from ._problems import TARGETS as TARGETS
+from ._problems import CalibrationProblem as CalibrationProblem
+from ._problems import EProblem as EProblem
+from ._problems import HistoryProblem as HistoryProblem
+from ._problems import check_target as check_target
+from ._problems import default_target as default_target
+from ._problems import dem_run as dem_run
+from ._problems import history_loss as history_loss
+from ._problems import history_problem as history_problem
+from ._problems import history_stat as history_stat
+from ._problems import history_stat_batch as history_stat_batch
+from ._problems import housner_reference as housner_reference
+from ._problems import last_compared_time as last_compared_time
+from ._problems import problem as problem
+from ._problems import stats as stats
+from ._problems import stats_batch as stats_batch
+from ._problems import window_error as window_error
+from ._result import BOUNCE_BANDS as BOUNCE_BANDS
+from ._result import BOUNCE_FRACTIONS as BOUNCE_FRACTIONS
+from ._result import E_TOL as E_TOL
+from ._result import HISTORY_TOL as HISTORY_TOL
+from ._result import MIN_ENERGY_RATIO as MIN_ENERGY_RATIO
+from ._result import Calibration as Calibration
+from ._result import HistoryFit as HistoryFit
+from ._result import bounce_peaks as bounce_peaks
+from ._result import bounces_missed as bounces_missed
+from ._result import e_missed as e_missed
+from ._result import history_missed as history_missed
+from ._result import history_peak_gap as history_peak_gap
+from ._result import minimum_missed as minimum_missed
+from ._result import verdict as verdict
 
 __all__ = [
     "BOUNCE_BANDS",

@@ -9,7 +9,7 @@ import jax
 import jax.numpy as jnp
 
 from ..compilation import stable_name
-from .problems import CalibrationProblem, stats
+from ._problems import CalibrationProblem, stats
 
 
 def beta_of_u(problem: CalibrationProblem, u):
@@ -57,7 +57,7 @@ def _loss_u_bwd(dval, g, perturbed, u, problem):
 
 
 # a static argument of the L-BFGS step: named, so that its program can be kept on disk
-stable_name(loss_u, "rockjax.calibration.derivatives.loss_u")
+stable_name(loss_u, "rockjax.calibration._derivatives.loss_u")
 
 
 def forward_mode(loss):

@@ -33,7 +33,7 @@ from ..housner import simulate_housner
 from ..modes import MODE_NAMES, Mode, as_mode
 from ..relations import beta_dejong, beta_hcrit, e_isr, free_rocking_period
 from ..response import STATUS_OK, Response, e_exp
-from .result import BOUNCE_FRACTIONS, MIN_ENERGY_RATIO, hysteresis
+from ._result import BOUNCE_FRACTIONS, MIN_ENERGY_RATIO, hysteresis
 
 MODES = MODE_NAMES
 SAVE_DT = 0.002

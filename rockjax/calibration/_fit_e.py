@@ -18,9 +18,9 @@ from ..contact import Joint
 from ..housner import simulate_housner
 from ..modes import Mode, as_mode
 from ..response import STATUS_OK
-from . import solvers
-from .derivatives import forward_mode
-from .problems import (
+from . import _solvers as solvers
+from ._derivatives import forward_mode
+from ._problems import (
     SAVE_DT,
     CalibrationProblem,
     EProblem,
@@ -33,14 +33,14 @@ from .problems import (
     housner_loss,
     last_compared_time,
 )
-from .result import (
+from ._result import (
     Calibration,
     bounce_e_exp,
     e_missed,
     restitution,
     verdict,
 )
-from .solvers import check_stopping
+from ._solvers import check_stopping
 
 
 def e_effective(

@@ -1,7 +1,6 @@
 """The DEM's ``beta`` fitted, :func:`fit_beta`: to a restitution, to the facade bounce
 targets, or to Housner's history (``loss="history"``). The paper's other direction and the
-measured histories are in :mod:`rockjax.calibration.fit_e` and
-:mod:`rockjax.calibration.fit_history`."""
+measured histories are in ``_fit_e.py`` and ``_fit_history.py``."""
 
 from __future__ import annotations
 
@@ -21,9 +20,9 @@ from ..contact import Joint
 from ..modes import Mode, as_mode
 from ..relations import e_isr
 from ..response import STATUS_MESSAGES, STATUS_OK, Response
-from . import solvers
-from .derivatives import beta_of_u, forward_mode, loss_u
-from .problems import (
+from . import _solvers as solvers
+from ._derivatives import beta_of_u, forward_mode, loss_u
+from ._problems import (
     CalibrationProblem,
     build_problem,
     check_range,
@@ -38,7 +37,7 @@ from .problems import (
     stats_batch,
     window_error,
 )
-from .result import (
+from ._result import (
     Calibration,
     bounce_e_exp,
     bounces_missed,
@@ -47,7 +46,7 @@ from .result import (
     restitution,
     verdict,
 )
-from .solvers import check_count, check_stopping
+from ._solvers import check_count, check_stopping
 
 METHODS = ("lbfgs", "grid", "root")
 LOSSES = ("peaks", "history")

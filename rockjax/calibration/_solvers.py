@@ -13,7 +13,7 @@ import numpy as np
 from .._checks import check_scalar
 from .._lazy import lazy_module
 from ..compilation import persistent_jit
-from .problems import CalibrationProblem, stats_batch
+from ._problems import CalibrationProblem, stats_batch
 
 optax = lazy_module("optax")  # loaded on first use (rockjax/_lazy.py): a fit needs it
 

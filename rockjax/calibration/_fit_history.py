@@ -14,20 +14,20 @@ from ..compilation import persistent_jit
 from ..dem import simulate_dem
 from ..modes import Mode, as_mode
 from ..response import Response
-from . import solvers
-from .derivatives import forward_mode
-from .problems import (
+from . import _solvers as solvers
+from ._derivatives import forward_mode
+from ._problems import (
     history_loss,
     history_params,
     history_problem,
 )
-from .result import (
+from ._result import (
     MIN_ENERGY_RATIO,
     HistoryFit,
     history_missed,
     verdict,
 )
-from .solvers import check_stopping
+from ._solvers import check_stopping
 
 _h_loss = forward_mode(history_loss)
 
