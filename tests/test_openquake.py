@@ -196,8 +196,8 @@ def test_exposure_files(tmp_path):
 
 needs_engine = pytest.mark.skipif(
     not oq.engine_available(),
-    reason="the OpenQuake engine is not installed (pip install -e '.[openquake]' then "
-    "pip install --no-deps openquake-engine==3.26.2; ./test.sh installs it)",
+    reason="the OpenQuake engine is not installed (./test.sh installs it: .ci/ensure-venv; "
+    "by hand see docs/openquake.md, 'Installing the engine')",
 )
 
 

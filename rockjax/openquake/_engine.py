@@ -20,7 +20,8 @@ pd = lazy_module("pandas")  # loaded on first use (rockjax/_lazy.py); xarray's d
 
 INSTALL_HINT = (
     "the OpenQuake engine is not installed in this Python: from a rockjax checkout run "
-    "`pip install -e '.[openquake]'` and then `pip install --no-deps openquake-engine==3.26.2` "
+    "`pip install -e '.[openquake]'` and then `pip install --no-deps openquake-engine==X` with "
+    "the version pyproject.toml pins ([tool.rockjax] openquake-engine); ./test.sh does both "
     "(docs/openquake.md, 'Installing the engine', says why --no-deps)"
 )
 
