@@ -14,6 +14,8 @@
 See docs/openquake.md ("Regional risk with OpenQuake").
 """
 
+from ._catalogue import BuildingClass as BuildingClass
+from ._catalogue import Catalogue as Catalogue
 from ._engine import engine_available as engine_available
 from ._engine import read_damages as read_damages
 from ._engine import run_job as run_job
@@ -28,6 +30,8 @@ from ._nrml import fragility_model as fragility_model
 from ._nrml import lognormal_moments as lognormal_moments
 
 __all__ = [
+    "BuildingClass",
+    "Catalogue",
     "engine_available",
     "engine_imt",
     "exposure",
