@@ -246,3 +246,65 @@ def test_engine_round_trip(ida_ds, tmp_path, form):
     assert np.ptp(expected) > 0.5  # the IMs span the curve, not one flat end of it
     np.testing.assert_allclose(engine, expected, atol=ENGINE_ATOL, rtol=0)
     assert (tmp_path / "oqdata" / "home" / "oqdata" / "db.sqlite3").is_file()  # not in ~/oqdata
+
+
+# ----------------------------------------------------------------------------- the catalogue
+
+
+def test_class_ids_and_binning():
+    cat = oq.Catalogue.grid()
+    assert len(cat.classes) == 36  # 3 storeys x (9 parapet + 3 facade) bins
+    ids = {c.id for c in cat.classes}
+    assert "P-b25-h100-n2-T20-z5-roof" in ids and "F-b38-h300-g0-n3-T30-z5-s3" in ids
+    for cid in ids:
+        assert len(cid) <= 75  # the engine's longest identifier
+    row = {"element": "parapet", "b": 0.27, "h": 1.1, "storeys": 2}
+    assert cat.class_of(row) == "P-b25-h100-n2-T20-z5-roof"
+    row = {"element": "facade", "b": 0.47, "h": 3.2, "storeys": 3}
+    assert cat.class_of(row) == "F-b50-h300-g0-n3-T30-z5-s3"
+    with pytest.raises(ValueError, match="outside the catalogue"):
+        cat.class_of({"element": "parapet", "b": 0.8, "h": 1.0, "storeys": 2})
+    with pytest.raises(ValueError, match="4-storey"):
+        cat.class_of({"element": "parapet", "b": 0.25, "h": 1.0, "storeys": 4})
+    with pytest.raises(ValueError, match="roof"):
+        oq.BuildingClass("parapet", 0.25, 1.0, 2, storey=1)
+
+
+FLOOR_RTOL = 1e-12
+"""A linear building: floor motion of the scaled record vs the scaled floor motion (round-off)."""
+
+
+def test_floor_records_scale_with_the_ground_record():
+    """The premise of the ground IM: the run at scale s of the floor record is the element under
+    the building's response to the ground record scaled by s (the building is linear)."""
+    cat = oq.Catalogue.grid(parapet_b=(0.2,), parapet_h=(1.0,), facade_b=(0.3,), storeys=(2,))
+    rec = rj.GroundMotion.ricker(2.0, 0.3, dt=0.005, name="r")
+    sets = cat.record_sets([rec])
+    roof = sets["n2-T200-z50-H300-f2"][0]
+    bldg = cat.classes[0].building()
+    direct = bldg.floor_motions(rec.scaled(3.0))[1]
+    np.testing.assert_allclose(
+        3.0 * np.asarray(roof.ag),
+        np.asarray(direct.ag),
+        rtol=FLOOR_RTOL,
+        atol=FLOOR_RTOL * float(direct.pga),
+    )
+    assert sets["n2-T200-z50-H300-f1"][0].metadata["ground"] == "r"  # the top-storey facade
+
+
+@pytest.mark.slow
+def test_catalogue_run_fits_in_the_ground_im(tmp_path):
+    cat = oq.Catalogue.grid(parapet_b=(0.2,), parapet_h=(1.0,), facade_b=(), storeys=(2,))
+    records = [
+        rj.GroundMotion.ricker(1.0, T, dt=0.005, name=f"r{i}") for i, T in enumerate(RECORD_PERIODS)
+    ]
+    datasets, frags = cat.run(records, tmp_path, scales=SCALES, progress=False, n_workers=1)
+    (cid,) = frags
+    ds = datasets[cid]
+    ground = np.array([float(r.pga) for r in records])
+    np.testing.assert_allclose(ds["im"], ground[:, None] * SCALES[None, :], rtol=1e-12)
+    assert float(ds["pga_scaled"].max()) > float(ds["im"].max())  # the roof amplifies
+    assert frags[cid].im == "pga" and frags[cid].im_range == (
+        float(ds["im"].min()),
+        float(ds["im"].max()),
+    )
