@@ -34,11 +34,13 @@ def engine_available() -> bool:
         return False
 
 
-def _engine_env(datadir: Path, distribute: str) -> dict:
+def _engine_env(datadir: Path, distribute: str, jit: bool) -> dict:
     home = datadir / "home"
     (home / "oqdata").mkdir(parents=True, exist_ok=True)
     env = dict(os.environ)
     env.update(HOME=str(home), OQ_DATADIR=str(datadir), OQ_DISTRIBUTE=distribute)
+    if not jit:
+        env["NUMBA_DISABLE_JIT"] = "1"
     env.pop("OQ_DATABASE", None)  # a server elsewhere would not see this job's files
     return env
 
@@ -59,6 +61,7 @@ def run_job(
     *,
     datadir: str | os.PathLike | None = None,
     distribute: str = "no",
+    jit: bool = False,
     timeout: float | None = 600.0,
 ) -> pd.DataFrame:
     """Run ``oq run job.ini`` and return the expected damage of every asset.
@@ -70,6 +73,11 @@ def run_job(
         distribute: The engine's ``OQ_DISTRIBUTE``: ``"no"`` (default: in this process's
             child, one core; a scenario of thousands of assets takes seconds) or
             ``"processpool"`` (every core).
+        jit: Let numba compile the engine's kernels. Off by default: on a fresh install the
+            first run compiles them for about a minute of CPU (then cached in the engine's
+            folder), while a scenario of 1000 assets runs in about 10 s without them, with
+            the same damages (measured: identical to the last digit of the export). Turn it on
+            for event-based jobs with many events.
         timeout: Seconds before the engine's process is stopped (None: no limit).
 
     Returns:
@@ -88,7 +96,7 @@ def run_job(
     if not job_ini.is_file():
         raise ValueError(f"job_ini={os.fspath(job_ini)!r} is not a file; write it first.")
     datadir = Path(datadir).resolve() if datadir is not None else job_ini.parent / "oqdata"
-    env = _engine_env(datadir, distribute)
+    env = _engine_env(datadir, distribute, jit)
     _oq(["run", str(job_ini)], env, job_ini.parent, timeout)
     out = datadir / "export"
     out.mkdir(exist_ok=True)
