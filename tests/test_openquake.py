@@ -292,8 +292,9 @@ def test_floor_records_scale_with_the_ground_record():
     assert sets["n2-T200-z50-H300-f1"][0].metadata["ground"] == "r"  # the top-storey facade
 
 
-@pytest.mark.slow
 def test_catalogue_run_fits_in_the_ground_im(tmp_path):
+    """One class end to end (a Dask campaign of one worker, ~20 s): the IDA's IM is the ground
+    record's PGA times the scale, and the roof's PGA exceeds it."""
     cat = oq.Catalogue.grid(parapet_b=(0.2,), parapet_h=(1.0,), facade_b=(), storeys=(2,))
     records = [
         rj.GroundMotion.ricker(1.0, T, dt=0.005, name=f"r{i}") for i, T in enumerate(RECORD_PERIODS)
