@@ -253,9 +253,8 @@ def main() -> None:
         if model == "dem" and not dem_ok:
             print("  dem: simulate_dem has no wall_motion; skipped")
             continue
-        kw = dict(model=model, mode="one_sided")
-        if model == "dem":
-            kw["beta"] = float(rj.beta_dejong(block))
+        beta = float(rj.beta_dejong(block)) if model == "dem" else None
+        kw = dict(model=rj.as_model(model, beta=beta), mode=rj.Facade())
         datasets = {}
 
         def call(label, wall, kw=kw, datasets=datasets):

@@ -31,7 +31,7 @@ import subprocess
 import sys
 import time
 
-# XLA_FLAGS as given, before `import rockjax` adds its flag: the subprocesses start from these
+# XLA_FLAGS as given, before rockjax adds its option: the subprocesses start from these
 XLA_FLAGS_GIVEN = os.environ.get("XLA_FLAGS", "")
 
 if __name__ == "__main__" and "--worker" in sys.argv and "--one-core" in sys.argv:
@@ -39,10 +39,14 @@ if __name__ == "__main__" and "--worker" in sys.argv and "--one-core" in sys.arg
     os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 
 try:
-    import rockjax as rj  # sets XLA_FLAGS before the backend starts (see rockjax/__init__.py)
+    import rockjax as rj
 except ImportError:  # run from a checkout without installing
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
     import rockjax as rj
+
+# rockjax's XLA:CPU option, before the backend starts, with any XLA_FLAGS (a worker's device
+# count too); none in the workers run with ROCKJAX_NO_XLA_TUNING=1
+rj.compilation.configure_cpu()
 
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402

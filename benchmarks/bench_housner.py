@@ -70,6 +70,8 @@ import numpy as np  # noqa: E402
 import rockjax as rj  # noqa: E402
 from rockjax.constants import G  # noqa: E402
 
+rj.compilation.configure_cpu()  # XLA:CPU's option for the time loops, with the flags above
+
 
 def records(key, n_rec: int, n: int, dt: float, eta: float, pga=(1.0, 2.0)) -> jax.Array:
     """``(n_rec, n)`` accelerations [m/s^2]: band-limited noise, enveloped, scaled to a PGA

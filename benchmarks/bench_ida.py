@@ -36,8 +36,8 @@ RESULTS = pathlib.Path(__file__).parent / "results" / "ida.json"
 
 def run(block, records, beta, model="dem"):
     t0 = time.perf_counter()
-    kw = dict(beta=beta) if model == "dem" else {}
-    ds = rj.ida(block, records, SCALES, model=model, progress=False, **kw)
+    model = rj.as_model(model, beta=beta if model == "dem" else None)
+    ds = rj.ida(block, records, SCALES, model=model, progress=False)
     return ds, time.perf_counter() - t0
 
 

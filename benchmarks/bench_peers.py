@@ -45,10 +45,12 @@ import sys
 import time
 
 try:
-    import rockjax as rj  # first: it sets XLA_FLAGS before the backend starts
+    import rockjax as rj
 except ImportError:  # run from a checkout without installing
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
     import rockjax as rj
+
+rj.compilation.configure_cpu()  # before the backend starts; the JAX peers run with it too
 
 import diffrax  # noqa: E402
 import jax  # noqa: E402

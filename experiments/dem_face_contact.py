@@ -10,7 +10,8 @@ convergence in the time step.
    beta_Hcrit); reference dt_d/16.
 3. ``shear``: the three shear-history rules of the face law (``rj.Joint(shear_release=...)``:
    release the share of a pressure-shaped or a uniform stress that opens, or none) against
-   n_sub = 64 at beta = 0, where the sub-contacts lose energy by releasing their shear springs.
+   n_sub = 64 at beta = 0, where the sub-contacts lose energy by releasing their shear springs,
+   and on two parapets at 0.5 beta_DeJong.
 
     python experiments/dem_face_contact.py [--parts limit,dt,shear] [--out experiments/results]
 
@@ -128,6 +129,7 @@ def study_shear():
     rows = []
     cases = [("parapet", 0.2, 1.5, 0.0), ("parapet", 0.25, 1.0, 0.0), ("parapet", 0.25, 3.0, 0.0)]
     cases += [("facade", b, h, 0.0) for b, h in FACADES]
+    cases += [("parapet", 0.25, 1.0, 0.5), ("parapet", 0.2, 1.5, 0.5)]  # damped: 0.5 beta_DJ
     for kind, b, h, frac in cases:
         blk = _block(kind, b, h)
         beta = _beta(kind, blk, frac)

@@ -150,7 +150,7 @@ def capacities(results, cases, shapes) -> list[dict]:
                     h=float(case.block.h),
                     b=float(case.block.b),
                     mode=case.mode,
-                    model=case.model,
+                    model=case.model.name,
                     record=rec,
                     subset=shape_of[rec]["subset"],
                     shape=shape_of[rec]["shape"],
@@ -447,7 +447,7 @@ def figures(out: pathlib.Path, rows, ratios, results, cases) -> list[str]:
         ds = results[c.name]
         pulse = ds["meta_set"] == "nearfield_pulse"
         rj.plot.ida(ds.sel(record=ds["record"][pulse]), ax=ax)
-        ax.set_title(f"{c.mode} {c.model}: NF pulse records", fontsize=9)
+        ax.set_title(f"{c.mode} {c.model.name}: NF pulse records", fontsize=9)
         if ax.get_legend() is not None:
             ax.get_legend().remove()
     axes[0, 0].set_yscale("log")  # shared: the capacities span 0.04-1 g

@@ -285,7 +285,7 @@ def run_case(asm, storey, bldg, beta, records, t_end, cfg) -> dict[str, np.ndarr
     Returns (record, run) arrays ``scales``, ``collapse``, ``status``, ``peak``
     (``max_theta_over_eta``)."""
     coarse = cfg["coarse"]
-    kw = dict(beta=beta, t_end=t_end, chunk_size=cfg["chunk"], progress=False)
+    kw = dict(model=rj.DEM(beta=beta), t_end=t_end, chunk_size=cfg["chunk"], progress=False)
     if storey is not None:
         kw.update(support_motion=bldg, storey=storey)
     ds = rj.ida(asm, records, coarse, **kw)

@@ -6,33 +6,11 @@ bottom corner; a positive ground acceleration drives ``theta`` negative; a facad
 walls at its -x face; a parapet (``rj.Parapet()``, ``"two_sided"``) rocks both ways.
 """
 
-import os as _os
-import re as _re
+import jax as _jax
 
-# XLA:CPU compiles a while loop into a single kernel (no per-iteration dispatch) only when the
-# loop touches fewer bytes than `xla_cpu_small_while_loop_byte_threshold`. Our time-stepping
-# loops are a few hundred bytes per step but run tens of thousands of steps; above the default
-# threshold each DEM step pays ~0.5-1 us of kernel dispatch, below it ~35-60 ns (docs/benchmarks.md).
-# XLA reads XLA_FLAGS when its CPU backend starts, so this takes effect only if no JAX
-# computation ran before `import rockjax`. Set ROCKJAX_NO_XLA_TUNING=1 to leave XLA_FLAGS alone.
-_THRESHOLD = "xla_cpu_small_while_loop_byte_threshold=1000000"
-if _os.environ.get("ROCKJAX_NO_XLA_TUNING", "0") != "1":
-    _flags = _os.environ.get("XLA_FLAGS", "")
-    if "xla_cpu_small_while_loop_byte_threshold" not in _flags:
-        if "--xla_backend_extra_options=" in _flags:
-            _flags = _re.sub(
-                r"--xla_backend_extra_options=(\S*)",
-                rf"--xla_backend_extra_options=\1,{_THRESHOLD}",
-                _flags,
-            )
-        else:
-            _flags = f"{_flags} --xla_backend_extra_options={_THRESHOLD}".strip()
-        _os.environ["XLA_FLAGS"] = _flags
-
-import jax as _jax  # noqa: E402
-
-# The other import side effect: rocking impacts and penalty contacts need float64 (contact
-# penetrations are ~1e-6 of the block size and energies are compared to 1e-6 relative).
+# The one import side effect on JAX's configuration: rocking impacts and penalty contacts need
+# float64 (contact penetrations are ~1e-6 of the block size and energies are compared to 1e-6
+# relative).
 _jax.config.update("jax_enable_x64", True)
 
 from . import building as building  # noqa: E402
@@ -71,6 +49,10 @@ from .fragility import fragility as fragility  # noqa: E402
 from .housner import simulate_housner as simulate_housner  # noqa: E402
 from .ida import collapse_intervals as collapse_intervals  # noqa: E402
 from .ida import ida as ida  # noqa: E402
+from .models import DEM as DEM  # noqa: E402
+from .models import Housner as Housner  # noqa: E402
+from .models import ThreeBranch as ThreeBranch  # noqa: E402
+from .models import as_model as as_model  # noqa: E402
 from .modes import Facade as Facade  # noqa: E402
 from .modes import Parapet as Parapet  # noqa: E402
 from .modes import as_mode as as_mode  # noqa: E402
@@ -96,6 +78,12 @@ from .three_branch import ThreeBranchFit as ThreeBranchFit  # noqa: E402
 from .three_branch import ThreeBranchLaw as ThreeBranchLaw  # noqa: E402
 from .three_branch import fit_three_branch as fit_three_branch  # noqa: E402
 
+# XLA:CPU's option for rockjax's time loops (one history 3-30x faster), added to
+# XLA_FLAGS only where it overrides no choice of the user's: XLA_FLAGS unset, JAX's backend not
+# started (XLA reads the variable then), ROCKJAX_NO_XLA_TUNING not 1. Otherwise the first
+# compile says once how to add it (docs/conventions.md, "XLA flags").
+compilation.configure_cpu(keep_user_flags=True)
+
 __version__ = "0.1.0"
 
 __all__ = [
@@ -104,18 +92,22 @@ __all__ = [
     "Block",
     "Calibration",
     "Capacity",
+    "DEM",
     "Facade",
     "Fragility",
     "GroundMotion",
+    "Housner",
     "Joint",
     "LimitAnalysis",
     "Parapet",
     "PlausibilityWarning",
     "Response",
     "ShearBuilding",
+    "ThreeBranch",
     "ThreeBranchFit",
     "ThreeBranchLaw",
     "as_mode",
+    "as_model",
     "beta_dejong",
     "beta_hcrit",
     "beta_isr",

@@ -246,7 +246,7 @@ GAP_NEEDS_ONE_SIDED = (
 
 HOUSNER_GAP_UNUSED = (
     "the Housner models have no facade gap (their facade stands flush on its return walls). "
-    "Use the DEM (model='dem', rj.simulate_dem) for a gap, or leave gap=0 (rj.Facade())."
+    "Use the DEM (rj.simulate_dem, model=rj.DEM(beta=...)) for a gap, or leave gap=0 (rj.Facade())."
 )
 """Why a facade's gap is refused by the Housner models (``simulate_housner``, ``ida``)."""
 

@@ -45,7 +45,9 @@ from . import jsonio
 from ._checks import check_nonnegative, check_scales
 from ._lazy import lazy_module
 from .block import Block
+from .contact import Joint
 from .ida import DEFAULT_SCALES, MODELS, ida, run_config
+from .models import DEM, Housner, Model, as_model
 from .modes import Mode, as_mode
 from .motion import GroundMotion
 
@@ -63,44 +65,76 @@ class Case:
         name: Label, also the file name of the result: letters, digits, ``_``, ``.``, ``-``.
         block: The block (scalar fields).
         records: Key of the record set in the ``records`` mapping given to :func:`run`.
-        model: ``"dem"`` or ``"housner"``.
+        model: The model with its options, as :func:`rockjax.ida` takes it:
+            ``rj.DEM(beta=...)``, ``rj.Housner(e=...)`` or ``rj.ThreeBranch(law)``, or a name
+            (``"housner"``); kept as the object (:func:`rockjax.as_model`, converted once).
+            Its ``name`` labels the manifest and the results.
         mode: ``"two_sided"`` (parapet) or ``"one_sided"`` (facade): given as a name or as
             :class:`rockjax.Parapet` / :class:`rockjax.Facade`, kept as its name (the
             manifest's and the results' label).
-        beta: DEM damping [s] (required for the DEM).
-        e: Housner restitution [-] (default as :func:`rockjax.simulate_housner`).
-        gap: DEM facade gap [m]: given apart (with ``mode="one_sided"``) or in the Facade;
-            kept as a float (0 for a parapet).
+        beta: Deprecated (a ``DeprecationWarning``): the DEM's damping [s], now
+            ``model=rj.DEM(beta=...)``; folded into ``model`` and kept as None.
+        e: Deprecated, as ``beta``: the Housner restitution [-], now
+            ``model=rj.Housner(e=...)``.
+        gap: The facade's gap [m] given apart (with ``mode="one_sided"``) or in the Facade
+            (the DEM's only); kept as a float (0 for a parapet).
     """
 
     name: str
     block: Block
     records: str
-    model: str = "dem"
+    model: Model | str = "dem"
     mode: Mode | str = "two_sided"
     beta: float | None = None
     e: float | None = None
     gap: float | None = None
 
     def __post_init__(self):
-        # converted once (rockjax.as_mode), kept as the name and the float gap of the spec
+        # converted once (rockjax.as_model, rockjax.as_mode): the model kept as its object,
+        # the mode as the name and the float gap of the spec
+        options = {k: v for k, v in (("beta", self.beta), ("e", self.e)) if v is not None}
+        if options:
+            given = ", ".join(f"{k}=" for k in options)
+            warnings.warn(
+                f"rj.campaign.Case({given}...) is deprecated: give the model's options in its "
+                "object, model=rj.DEM(beta=...) or model=rj.Housner(e=...). The runs are the same.",
+                DeprecationWarning,
+                stacklevel=3,
+            )
+        model = as_model(self.model, **options)
         mode = as_mode(self.mode, self.gap)
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "beta", None)
+        object.__setattr__(self, "e", None)
         object.__setattr__(self, "mode", mode.name)
         object.__setattr__(self, "gap", float(mode.gap))
 
+    def rocking(self) -> Mode:
+        """The mode object of the case (:class:`rockjax.Parapet` or :class:`rockjax.Facade`
+        with its gap)."""
+        return as_mode(self.mode, self.gap)
+
     def spec(self) -> dict:
-        """The case as JSON-ready values (the block as its fields)."""
+        """The case as JSON-ready values (the block as its fields, the model as its name and
+        options)."""
         block = {f: float(getattr(self.block, f)) for f in Block.FIELDS}
-        return dict(
+        model = self.model
+        out = dict(
             name=self.name,
             block=block,
             records=self.records,
-            model=self.model,
+            model=model.name,
             mode=self.mode,
-            beta=None if self.beta is None else float(self.beta),
-            e=None if self.e is None else float(self.e),
+            beta=float(model.beta) if isinstance(model, DEM) else None,
+            e=float(model.e) if model.rigid and model.e is not None else None,
             gap=float(self.gap),
         )
+        # the options beyond beta and e, only where given (a default case's spec, hence its
+        # fingerprint, is the same as before they existed)
+        extra = {k: v for k, v in model.attrs().items() if k not in ("beta", "joint")}
+        if isinstance(model, DEM) and model.joint != Joint():
+            extra["joint"] = repr(model.joint)
+        return out | extra
 
 
 def grid(
@@ -108,7 +142,7 @@ def grid(
     record_sets: Sequence[str],
     *,
     modes: Sequence[Mode | str] = ("two_sided", "one_sided"),
-    models: Sequence[str] = ("dem", "housner"),
+    models: Sequence[Model | str] = ("dem", "housner"),
     beta: Mapping[tuple[str, str], float] | None = None,
     e: Mapping[tuple[str, str], float] | None = None,
     gap: float | None = None,
@@ -120,14 +154,18 @@ def grid(
         record_sets: Keys of the record sets (as in the mapping given to :func:`run`).
         modes: Modes to run: names, or :class:`rockjax.Parapet` / :class:`rockjax.Facade`
             (a Facade's gap is that of its DEM cases).
-        models: Models to run.
-        beta: ``(block label, mode name) -> beta`` [s] for the DEM cases (required with
+        models: Models to run: objects (``rj.Housner(e=0.9)``, ``rj.ThreeBranch(law)``,
+            ``rj.DEM(beta=...)``: the same for every block and mode) or the names ``"dem"``
+            (its ``beta`` per block and mode from ``beta``) and ``"housner"`` (its ``e`` from
+            ``e``, where given).
+        beta: ``(block label, mode name) -> beta`` [s] for the ``"dem"`` cases (required with
             ``"dem"``).
-        e: ``(block label, mode name) -> e`` for the Housner cases (default: Eq. 2 / Eq. 5).
+        e: ``(block label, mode name) -> e`` for the ``"housner"`` cases (default: Eq. 2 /
+            Eq. 5).
         gap: Facade gap of the DEM one-sided cases [m]; default None (0, or the Facade's own).
 
     Returns:
-        Cases named ``"<block>_<mode>_<model>_<record set>"``.
+        Cases named ``"<block>_<mode>_<model name>_<record set>"``.
     """
     cases = []
     for label, block in blocks.items():
@@ -135,19 +173,22 @@ def grid(
             rocking = as_mode(given)
             mode = rocking.name
             for model in models:
+                if model == DEM.name:
+                    if beta is None or (label, mode) not in beta:
+                        raise ValueError(
+                            f"the DEM case of block {label!r}, mode {mode!r} needs beta: "
+                            f"give beta={{({label!r}, {mode!r}): value in s, ...}}."
+                        )
+                    model = DEM(beta=float(beta[(label, mode)]))
+                elif model == Housner.name and e is not None and (label, mode) in e:
+                    model = Housner(e=float(e[(label, mode)]))
+                model = as_model(model)
+                # Housner's facade has no gap
+                kw = {"mode": rocking.without_gap()}
+                if not model.rigid:
+                    kw["mode"] = as_mode(given, gap) if rocking.one_sided else rocking
                 for rs in record_sets:
-                    kw = {"mode": rocking.without_gap()}  # Housner's facade has no gap
-                    if model == "dem":
-                        if beta is None or (label, mode) not in beta:
-                            raise ValueError(
-                                f"the DEM case of block {label!r}, mode {mode!r} needs beta: "
-                                f"give beta={{({label!r}, {mode!r}): value in s, ...}}."
-                            )
-                        kw["beta"] = float(beta[(label, mode)])
-                        kw["mode"] = as_mode(given, gap) if rocking.one_sided else rocking
-                    elif e is not None and (label, mode) in e:
-                        kw["e"] = float(e[(label, mode)])
-                    name = f"{label}_{mode}_{model}_{rs}"
+                    name = f"{label}_{mode}_{model.name}_{rs}"
                     cases.append(Case(name, block, rs, model=model, **kw))
     return cases
 
@@ -345,9 +386,7 @@ def plan(
         set_hash[key] = [_record_hash(r) for r in recs]
     parts = []
     for c in cases:
-        _, config, _ = run_config(
-            c.block, model=c.model, mode=c.mode, beta=c.beta, e=c.e, gap=c.gap
-        )
+        _, config, _ = run_config(c.block, model=c.model, mode=c.rocking())
         recs = records[c.records]
         t_end = max(r.duration for r in recs) + tail
         spec = json.dumps(
@@ -360,7 +399,7 @@ def plan(
             if not any(math.isclose(r.dt, d, rel_tol=1e-9) for d in steps):
                 steps.append(r.dt)
         number = 0
-        size_max = per[c.model]
+        size_max = per[c.model.name]
         for d in steps:
             idx = [i for i, r in enumerate(recs) if math.isclose(r.dt, d, rel_tol=1e-9)]
             n_sub = max(1, math.ceil(d / config["dt_bound"] - 1e-9))
@@ -522,10 +561,7 @@ def _run_part(case: Case, recs, size, scales, t_end, fingerprint, key, path):
         list(recs) + pad,
         scales,
         model=case.model,
-        mode=case.mode,
-        beta=case.beta,
-        e=case.e,
-        gap=case.gap,
+        mode=case.rocking(),
         t_end=t_end,
         chunk_size=size * len(scales),
         progress=False,

@@ -26,6 +26,12 @@ under ``grad``). rockjax avoids this, and says when it compiles:
   also kept traced and lowered (``jax.export``) in its ``exported`` folder, so a new process
   neither traces nor lowers them: the first ``fit_beta`` of a process takes about 2 s instead
   of about 6 s (docs/benchmarks.md, "Kept programs").
+* **XLA:CPU's while-loop option.** :data:`XLA_CPU_OPTION` makes XLA:CPU compile the time-stepping
+  loops as one kernel (one history runs 3-30x faster; docs/benchmarks.md, "The
+  small-while-loop flag"). XLA reads it from ``XLA_FLAGS`` once, when its backend starts.
+  :func:`configure_cpu` adds it there; ``import rockjax`` does so only when ``XLA_FLAGS`` is
+  unset and JAX's backend has not started, and never with ``ROCKJAX_NO_XLA_TUNING=1``
+  (docs/conventions.md, "XLA flags"). Without it, the first compile says so once.
 * **Notices.** The first call that compiles a solver says so in one line ("compiling the Housner
   solver for records of <= 32768 samples (once per session)..."), through the ``rockjax``
   logger when logging is configured, else on stderr. The DEM's says which program it compiles
@@ -46,7 +52,9 @@ import logging
 import math
 import os
 import pickle
+import re
 import sys
+import warnings
 from collections.abc import Hashable
 from pathlib import Path
 
@@ -76,6 +84,20 @@ CACHE_MIN_COMPILE_S = 0.0
 block's derived quantities, the checks) take 30-40 ms each to compile, and in the first
 ``fit_beta`` of a process they added up to about 1 s (scratch runs; docs/benchmarks.md,
 "Kept programs")."""
+
+XLA_CPU_OPTION = "xla_cpu_small_while_loop_byte_threshold=1000000"
+"""The XLA:CPU option that :func:`configure_cpu` adds to ``XLA_FLAGS`` (inside
+``--xla_backend_extra_options=``). XLA:CPU compiles a while loop into a single kernel, without
+a dispatch per iteration, only when the loop touches fewer bytes than this threshold (XLA's
+default threshold is below what rockjax's loops touch). rockjax's time-stepping loops touch a few hundred bytes a step but run
+tens of thousands of steps: above the threshold each DEM step pays about 0.5-1 us of dispatch,
+below it 35-60 ns; one DEM history runs 6-28x faster with it, one Housner history 3-10x
+(docs/benchmarks.md, "The small-while-loop flag"). It changes how XLA:CPU runs the loop: the
+results agree to round-off (Housner's to the bit; a 20 s DEM history to 3e-13 rad)."""
+
+NO_TUNING_ENV = "ROCKJAX_NO_XLA_TUNING"
+"""Environment variable: set to ``1``, rockjax never changes ``XLA_FLAGS`` (neither at import
+nor in :func:`configure_cpu`) and says nothing about :data:`XLA_CPU_OPTION`."""
 
 _OFF = ("", "0", "off", "no", "false", "none")
 _LOG = logging.getLogger("rockjax")
@@ -171,15 +193,115 @@ def use_default_cache() -> None:
     this process (the Python API's default; the command line turns it on at startup). A cache
     already chosen is left alone: by :func:`enable_cache`, or a folder set for JAX itself
     (``JAX_COMPILATION_CACHE_DIR``, ``jax.config``) while ``$ROCKJAX_CACHE_DIR`` is unset;
-    ``ROCKJAX_CACHE_DIR=off`` keeps it off. Costs one dictionary look-up after the first call."""
+    ``ROCKJAX_CACHE_DIR=off`` keeps it off. The first call also says, once, when XLA runs
+    without :data:`XLA_CPU_OPTION` (:func:`configure_cpu`). Costs one dictionary look-up after
+    the first call."""
     if _EXPORT["default"]:
         return
     _EXPORT["default"] = True
+    _say_if_cpu_option_missing()
     if _EXPORT["cache"] is not None:
         return
     if os.environ.get(CACHE_ENV) is None and jax.config.jax_compilation_cache_dir:
         return
     enable_cache()
+
+
+# --------------------------------------------------------------------------- XLA:CPU's option
+
+_OPTION_KEY = XLA_CPU_OPTION.split("=")[0]
+_CPU = {"late": False}  # import found JAX's backend started, XLA_FLAGS without the option
+
+
+def _tuning_off() -> bool:
+    return os.environ.get(NO_TUNING_ENV, "0").strip() == "1"
+
+
+def _backend_started() -> bool:
+    """Whether JAX's backend has started (so XLA has read ``XLA_FLAGS``). JAX has no public
+    query; its internal one is looked up, and where it is missing the backend counts as not
+    started (the option is then added as before, and takes effect if it is in time)."""
+    try:
+        from jax._src import xla_bridge
+    except ImportError:
+        return False
+    started = getattr(xla_bridge, "backends_are_initialized", None)
+    return bool(started()) if callable(started) else False
+
+
+def _with_option(flags: str) -> str:
+    """``flags`` with :data:`XLA_CPU_OPTION` added to their ``--xla_backend_extra_options``
+    (comma-separated ``key=value`` options), or in a new such flag."""
+    key = "--xla_backend_extra_options="
+    if key not in flags:
+        return f"{flags} {key}{XLA_CPU_OPTION}".strip()
+    return re.sub(
+        rf"{key}(\S*)",
+        lambda m: f"{key}{m.group(1)},{XLA_CPU_OPTION}" if m.group(1) else key + XLA_CPU_OPTION,
+        flags,
+        count=1,
+    )
+
+
+def configure_cpu(*, keep_user_flags: bool = False) -> bool:
+    """Add :data:`XLA_CPU_OPTION` to ``XLA_FLAGS``, so that XLA:CPU runs rockjax's time loops as
+    one kernel each (one history 3-30x faster; the same results to round-off).
+
+    XLA reads ``XLA_FLAGS`` once, when JAX's backend starts (at the first JAX computation), so
+    call this before that, e.g. right after ``import rockjax``; the flags already there are
+    kept. ``import rockjax`` calls it with ``keep_user_flags=True``; the ``rockjax`` command,
+    the speed benchmarks and the test suite call it as is. ``ROCKJAX_NO_XLA_TUNING=1`` turns it off.
+    The variable is changed in ``os.environ``, so processes started afterwards inherit it.
+
+    Args:
+        keep_user_flags: Change a non-empty ``XLA_FLAGS`` in no way, and warn of nothing (the
+            first compile then says once that the option is missing). The import-time
+            default; False: add the option to the flags there.
+
+    Returns:
+        True if ``XLA_FLAGS`` holds the option now (added, or there already). False if it was
+        not added: ``ROCKJAX_NO_XLA_TUNING=1``; ``keep_user_flags`` and ``XLA_FLAGS`` set; or
+        JAX's backend already started, too late for the option (a ``RuntimeWarning`` says so,
+        unless ``keep_user_flags``).
+    """
+    flags = os.environ.get("XLA_FLAGS", "")
+    if _OPTION_KEY in flags:
+        return True
+    if _tuning_off() or (keep_user_flags and flags.strip()):
+        return False
+    if _backend_started():
+        if keep_user_flags:
+            _CPU["late"] = True  # said at the first compile
+        else:
+            warnings.warn(
+                f"rockjax.compilation.configure_cpu: JAX's backend has already started, so "
+                f"XLA_FLAGS is read and {XLA_CPU_OPTION} cannot take effect in this process "
+                "(XLA_FLAGS left as it was): one history runs 3-30x slower, with the same "
+                "results to round-off. Call configure_cpu() before the first JAX computation.",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+        return False
+    os.environ["XLA_FLAGS"] = _with_option(flags)
+    return True
+
+
+def _say_if_cpu_option_missing() -> None:
+    """One notice, at the first compile, when XLA:CPU runs without :data:`XLA_CPU_OPTION`
+    (nothing with ``ROCKJAX_NO_XLA_TUNING=1``, nor on another backend)."""
+    if _tuning_off() or jax.default_backend() != "cpu":
+        return
+    if _CPU["late"]:
+        why = "JAX's backend started before `import rockjax` could add"
+    elif _OPTION_KEY not in os.environ.get("XLA_FLAGS", ""):
+        why = "XLA_FLAGS is set without"
+    else:
+        return
+    notice(
+        f"rockjax: {why} {XLA_CPU_OPTION}; one history runs 3-30x slower (same results). "
+        "Call rockjax.compilation.configure_cpu() before the first JAX computation, or set "
+        f"{NO_TUNING_ENV}=1 to run without it and without this notice."
+    )
 
 
 def notice_once(key: Hashable, message: str) -> bool:
@@ -376,6 +498,12 @@ def _export_dir() -> Path | None:
     return cache / EXPORT_SUBDIR
 
 
+def _brief(err: BaseException, limit: int = 200) -> str:
+    """``Type: message`` of ``err`` on one line, at most ``limit`` characters of message."""
+    text = " ".join(str(err).split())
+    return f"{type(err).__name__}: {text[:limit]}{'...' if len(text) > limit else ''}"
+
+
 @dataclasses.dataclass(frozen=True)
 class _Slot:
     """Place of the ``index``-th array output in a kept program's output skeleton."""
@@ -394,8 +522,9 @@ def persistent_jit(fn):
     configuration that tracing reads. Only functions of rockjax (or of the libraries) are kept.
     A call inside ``jit``, ``vmap`` or ``grad``, or with a function or class from elsewhere as
     an argument, is ``filter_jit``'s. A program that cannot be exported (one that calls back
-    into Python, as ``eqx.error_if`` does) runs as traced, in this process only. A damaged or
-    unreadable kept program is exported again. The kept programs are Python pickles, loaded
+    into Python, as ``eqx.error_if`` does) runs as traced, in this process only (a notice says
+    why for any other reason); so does every program when the folder cannot be written (one
+    notice). A damaged or unreadable kept program is exported again, with a notice. The kept programs are Python pickles, loaded
     as code is: keep the cache folder writable by you alone (the default, under your home
     folder, is). ``wrapped.sources`` counts how each program was
     obtained (``"exported"``, ``"loaded"``, ``"not kept"``; ``"plain"``: calls, with the
@@ -454,8 +583,11 @@ def persistent_jit(fn):
                 exported = jax.export.deserialize(bytearray(blob["exported"]))
                 sources["loaded"] += 1
                 return jax.jit(exported.call), blob["skeleton"]
-            except Exception:  # damaged, or written by an incompatible version: export again
-                pass
+            except Exception as err:  # noqa: BLE001  (unpickling bytes can raise anything)
+                notice(  # damaged, unreadable, or written by an incompatible version
+                    f"rockjax: the kept program {path} could not be loaded "
+                    f"({_brief(err)}); tracing it again and keeping it anew."
+                )
         dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
         treedef = jax.tree.structure(dynamic)  # its leaves: the call's arrays, in order
         skeleton = {}
@@ -473,19 +605,33 @@ def persistent_jit(fn):
         try:
             exported = jax.export.export(flat_jit)(*specs)
             blob = pickle.dumps({"exported": exported.serialize(), "skeleton": skeleton["out"]})
-        except Exception:
-            if "out" in skeleton:  # traced, but not kept (a callback, an unpicklable output):
-                sources["not kept"] += 1  # run what was traced, in this process only
-                return flat_jit, skeleton["out"]
-            return plain  # tracing failed: filter_jit raises the same error
+        except Exception as err:  # noqa: BLE001  (each kind is passed on or said below)
+            if "out" not in skeleton:
+                return plain  # tracing failed: filter_jit traces again and raises the error
+            # traced, but not kept: run what was traced, in this process only. A Python
+            # callback (eqx.error_if) is expected (jax.export cannot serialise one); anything
+            # else (an unpicklable output, a failing export) is said once.
+            if not (isinstance(err, NotImplementedError) and "callback" in str(err)):
+                notice_once(
+                    ("not kept", name),
+                    f"rockjax: the program of {name} runs but is not kept on disk "
+                    f"({_brief(err)}); each new process traces it again.",
+                )
+            sources["not kept"] += 1
+            return flat_jit, skeleton["out"]
         sources["exported"] += 1
         try:
             folder.mkdir(parents=True, exist_ok=True)
             tmp = path.with_suffix(f".{os.getpid()}.tmp")
             tmp.write_bytes(blob)
             os.replace(tmp, path)  # whole or absent, for processes sharing the folder
-        except OSError:
-            pass  # a read-only cache: this process keeps it in memory
+        except OSError as err:  # a read-only cache: this process keeps the program in memory
+            notice_once(
+                ("unwritable", folder),
+                f"rockjax: cannot keep programs in {folder} ({_brief(err)}); they run from "
+                f"memory and each new process traces them again. Set {CACHE_ENV} to a "
+                "writable folder.",
+            )
         return jax.jit(exported.call), skeleton["out"]
 
     last: list = []  # will_compile's signature, for the call that follows it
@@ -527,7 +673,7 @@ def persistent_jit(fn):
             try:
                 if signature(args, kwargs) is not None:
                     use_default_cache()
-            except TypeError:
+            except TypeError:  # an unhashable static argument: filter_jit below says so
                 pass
         if _export_dir() is None:
             last.clear()

@@ -30,7 +30,9 @@ __all__ = [
     "ida",
     "pairs",
     "peaks_decay",
+    "pushover",
     "pyplot",
+    "spectrum",
     "time_history",
 ]
 
@@ -581,4 +583,122 @@ def pairs(ds_facade, ds_parapet, ax=None, *, edp: str = "max_d_over_b"):
     ax.set_aspect("equal")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize="small")
+    return ax
+
+
+# ----------------------------------------------------------------------------- capacity, spectra
+
+_PUSHOVER_AXES = {
+    "d_over_b": (r"top displacement $d/b$ [-]", "d_over_b"),
+    "theta": (r"rotation $\theta$ [rad]", "theta"),
+}
+
+
+def pushover(capacity, fit=None, ax=None, *, x: str = "d_over_b", title: str | None = None):
+    """A pushover curve: the load multiplier ``lambda = F/(m g)`` against the top displacement
+    ``d/b`` (or the rotation), with the three-branch law overlaid when given.
+
+    For one block the rigid block's curve (:meth:`rockjax.Capacity.rigid_load_multiplier`) is
+    drawn dotted, for comparison; for an assembly its rigid collapse multiplier
+    ``lambda_rigid`` (:func:`rockjax.limit_analysis`) is a horizontal line.
+
+    Args:
+        capacity: A :class:`rockjax.Capacity` from :func:`rockjax.pushover`.
+        fit: A :class:`rockjax.ThreeBranchFit` (:func:`rockjax.fit_three_branch`) or a
+            :class:`rockjax.ThreeBranchLaw`, drawn against ``d/b``; default none.
+        ax: A matplotlib ``Axes`` to draw on; default a new figure.
+        x: The abscissa: ``"d_over_b"`` (top displacement over ``b`` [-]) or ``"theta"``
+            (rotation [rad]; the law, a function of ``d/b``, is drawn at the curve's
+            rotations).
+        title: Axes title; default none.
+
+    Returns:
+        The matplotlib ``Axes``.
+
+    Raises:
+        ValueError: for an unknown ``x``, or a ``fit`` that is no three-branch law.
+    """
+    if x not in _PUSHOVER_AXES:
+        raise ValueError(f"x must be one of {list(_PUSHOVER_AXES)}; got x={x!r}.")
+    law = getattr(fit, "law", fit)
+    if law is not None and not hasattr(law, "load_multiplier"):
+        raise ValueError(
+            "fit must be a rockjax.ThreeBranchFit (rj.fit_three_branch(capacity)) or a "
+            f"rockjax.ThreeBranchLaw; got a {type(fit).__name__}."
+        )
+    ax = _new_axes(ax)
+    xlabel, attr = _PUSHOVER_AXES[x]
+    d_over_b = np.asarray(capacity.d_over_b, dtype=float)
+    abscissa = np.asarray(getattr(capacity, attr), dtype=float)
+    lam = np.asarray(capacity.load_multiplier, dtype=float)
+    ax.plot(abscissa, lam, color="C0", lw=1.4, label="DEM pushover")
+    lam_rigid = float(np.asarray(capacity.lambda_rigid))
+    if capacity.theta_blocks is None:
+        theta = np.asarray(capacity.theta, dtype=float)
+        rigid = np.asarray(capacity.rigid_load_multiplier(theta), dtype=float)
+        ax.plot(abscissa, rigid, "k:", lw=1.0, label=rf"rigid block, $\lambda_0$ = {lam_rigid:.3g}")
+    elif np.isfinite(lam_rigid):
+        ax.axhline(
+            lam_rigid,
+            color="k",
+            ls=":",
+            lw=1.0,
+            label=rf"rigid collapse, $\lambda$ = {lam_rigid:.3g}",
+        )
+    if law is not None:
+        grid = np.linspace(0.0, max(float(np.max(np.abs(d_over_b))), 1e-9), 301)
+        at = np.interp(grid, np.abs(d_over_b), abscissa) if x == "theta" else grid
+        label = (
+            rf"three-branch: $\lambda_0$ = {float(law.lambda_0):.3g}, "
+            rf"$\Delta_1$ = {float(law.Delta_1):.3g}, $\Delta_2$ = "
+            rf"{float(law.Delta_2):.3g}, $\Delta_u$ = {float(law.Delta_u):.3g}"
+        )
+        ax.plot(at, np.asarray(law.load_multiplier(grid)), color="C3", ls="--", lw=1.4, label=label)
+    ax.axhline(0.0, color="0.7", lw=0.6)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(r"load multiplier $\lambda = a/g$ [-]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize="small")
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def spectrum(spec, ax=None, *, labels: Sequence[str] | None = None, title: str | None = None):
+    """A response spectrum: the pseudo-spectral acceleration ``Sa/g`` against the period.
+
+    Args:
+        spec: A :class:`rockjax.spectra.Spectrum` (:func:`rockjax.response_spectrum`; or
+            :func:`rockjax.floor_spectra`'s, one line per floor).
+        ax: A matplotlib ``Axes`` to draw on; default a new figure.
+        labels: One legend label per motion of a 2-D spectrum; default ``"floor 1"``, ...
+        title: Axes title; default none.
+
+    Returns:
+        The matplotlib ``Axes``.
+
+    Raises:
+        ValueError: If ``labels`` does not give one label per motion.
+    """
+    periods = np.asarray(spec.periods, dtype=float)
+    sa = np.atleast_2d(np.asarray(spec.sa, dtype=float)) / G
+    if labels is None:
+        labels = [None] if sa.shape[0] == 1 else [f"floor {k + 1}" for k in range(sa.shape[0])]
+    if len(labels) != sa.shape[0]:
+        raise ValueError(
+            f"labels must give one label per motion: {sa.shape[0]}; got {len(labels)}."
+        )
+    ax = _new_axes(ax)
+    zeta = 100.0 * float(np.asarray(spec.damping))
+    for row, label in zip(sa, labels, strict=True):
+        ax.plot(periods, row, lw=1.4, label=label)
+    ax.set_xlabel("period T [s]")
+    ax.set_ylabel(rf"pseudo-spectral acc. $S_a/g$ [-], {zeta:g} % damping")
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(bottom=0.0)
+    ax.grid(True, alpha=0.3)
+    if any(label is not None for label in labels):
+        ax.legend(loc="best", fontsize="small")
+    if title:
+        ax.set_title(title)
     return ax

@@ -165,20 +165,60 @@ def fit_pulse(
     return PulseFit(shape, period, amp, float(t0), r2_best, pulse)
 
 
-def _build(shape, amp, period, t0, dt, duration, name) -> GroundMotion:
-    label = f"{name}_{shape}_T{period:.3g}s"
+def pulse(
+    shape: str,
+    pga: float,
+    period: float,
+    *,
+    dt: float = 0.005,
+    duration: float | None = None,
+    t0: float | None = None,
+    name: str | None = None,
+) -> GroundMotion:
+    """The analytic pulse of one of the shapes :func:`identify_pulse` compares.
+
+    ``"MH"`` is :meth:`rockjax.GroundMotion.ricker` (the symmetric Ricker wavelet), ``"AR"``
+    :meth:`rockjax.GroundMotion.ricker_antisymmetric` and ``"SC"``
+    :meth:`rockjax.GroundMotion.sine_cycle` (one sine cycle), each with its constructor's
+    defaults for what is not given.
+
+    Args:
+        shape: ``"MH"``, ``"AR"`` or ``"SC"`` (:data:`SHAPES`).
+        pga: Peak ground acceleration [m/s^2] (its sign sets the direction).
+        period: Pulse period T [s].
+        dt: Sampling step [s].
+        duration: Record length [s]; default the constructor's (``t0 + 4 T`` for the Ricker
+            wavelets, ``t0 + 5 T`` for the sine cycle).
+        t0: The constructor's ``t0`` [s] (Ricker: centre, default ``1.5 T``; sine cycle:
+            start, default 0).
+        name: Label; default the constructor's.
+
+    Returns:
+        The sampled pulse as a :class:`rockjax.GroundMotion`.
+
+    Raises:
+        ValueError: for an unknown shape, or a value the constructor refuses.
+    """
+    check_choice("shape", shape, SHAPES)
     if shape == "MH":
-        return GroundMotion.ricker(amp, period, dt=dt, duration=duration, t0=t0, name=label)
+        return GroundMotion.ricker(pga, period, dt=dt, duration=duration, t0=t0, name=name)
     if shape == "AR":
         return GroundMotion.ricker_antisymmetric(
-            amp, period, dt=dt, duration=duration, t0=t0, name=label
+            pga, period, dt=dt, duration=duration, t0=t0, name=name
         )
-    if t0 < 0:  # a sine cycle starting before the record: keep the samples inside it
-        full = GroundMotion.sine_cycle(amp, period, dt=dt, duration=duration - t0, t0=0.0)
-        skip = int(round(-t0 / dt))
-        n = int(round(duration / dt)) + 1
-        return GroundMotion(ag=np.asarray(full.ag)[skip : skip + n], dt=dt, name=label)
-    return GroundMotion.sine_cycle(amp, period, dt=dt, duration=duration, t0=t0, name=label)
+    start = 0.0 if t0 is None else t0
+    return GroundMotion.sine_cycle(pga, period, dt=dt, duration=duration, t0=start, name=name)
+
+
+def _build(shape, amp, period, t0, dt, duration, name) -> GroundMotion:
+    label = f"{name}_{shape}_T{period:.3g}s"
+    if shape != "SC" or t0 >= 0:
+        return pulse(shape, amp, period, dt=dt, duration=duration, t0=t0, name=label)
+    # a sine cycle starting before the record: keep the samples inside it
+    full = GroundMotion.sine_cycle(amp, period, dt=dt, duration=duration - t0, t0=0.0)
+    skip = int(round(-t0 / dt))
+    n = int(round(duration / dt)) + 1
+    return GroundMotion(ag=np.asarray(full.ag)[skip : skip + n], dt=dt, name=label)
 
 
 def identify_pulse(

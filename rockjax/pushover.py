@@ -21,9 +21,11 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ._checks import (
+    GAP_NEEDS_ONE_SIDED,
     check_kind,
     check_nonnegative,
     check_positive,
+    concrete,
     warn_implausible,
 )
 from .assembly import Assembly, limit_analysis
@@ -103,6 +105,57 @@ class Capacity(eqx.Module):
     t: Float[Array, " sample"]
     theta_blocks: Float[Array, "sample block"] | None = None
 
+    def to_dataframe(self):
+        """The curve as a ``pandas.DataFrame``, one row per sample of the pull.
+
+        The index is ``"t [s]"`` (time from the start of pulling); the columns carry their
+        units in their names: ``"d/b [-]"``, ``"d [m]"`` (``d_over_b * b``),
+        ``"lambda [-]"`` (the load multiplier, ``a/g``), ``"theta [rad]"`` and, for an
+        assembly, ``"theta_<k> [rad]"`` per block ``k`` (0 the bottom one). ``df.attrs``
+        holds the curve's scalars: ``lambda_rigid [-]``, ``b [m]``, ``h [m]``,
+        ``overburden [N/m]`` and ``n_blocks``. Write it with ``df.to_csv(path)``.
+
+        Returns:
+            The ``pandas.DataFrame``.
+
+        Raises:
+            ValueError: inside ``jit``/``vmap`` (the values must be concrete).
+        """
+        import pandas as pd
+
+        t = concrete(self.t)
+        if t is None or t.ndim != 1:
+            raise ValueError(
+                "Capacity.to_dataframe needs one concrete curve: call it outside jit/vmap on "
+                f"the Capacity of one pushover (t has shape {np.shape(self.t)})."
+            )
+        b = float(concrete(self.b))
+        columns = {
+            "d/b [-]": self.d_over_b,
+            "d [m]": concrete(self.d_over_b) * b,
+            "lambda [-]": self.load_multiplier,
+            "theta [rad]": self.theta,
+        }
+        n_blocks = 1
+        if self.theta_blocks is not None:
+            blocks = concrete(self.theta_blocks)
+            n_blocks = blocks.shape[-1]
+            columns |= {f"theta_{k} [rad]": blocks[:, k] for k in range(n_blocks)}
+        df = pd.DataFrame(
+            {name: np.asarray(v, dtype=float) for name, v in columns.items()},
+            index=pd.Index(t, name="t [s]"),
+        )
+        df.attrs.update(
+            {
+                "lambda_rigid [-]": float(concrete(self.lambda_rigid)),
+                "b [m]": b,
+                "h [m]": float(concrete(self.h)),
+                "overburden [N/m]": float(concrete(self.overburden)),
+                "n_blocks": n_blocks,
+            }
+        )
+        return df
+
     def rigid_load_multiplier(self, theta) -> Float[Array, "..."]:
         r"""The rigid block's ``lambda`` at rotation ``theta`` [rad] (virtual work about the toe):
 
@@ -119,6 +172,13 @@ class Capacity(eqx.Module):
         psi = self.lambda_rigid * h / b - 1.0  # N / W
         c, s = jnp.cos(theta), jnp.sin(theta)
         return (b * c - h * s + psi * (b * c - 2.0 * h * s)) / (h * c + b * s)
+
+
+ASSEMBLY_STANDS = (
+    "an Assembly stands on the ground with its own top support; leave mode='two_sided' and "
+    "gap=0 (set the restraint's clearance with Assembly.stack(top=, gap=))."
+)
+"""Why :func:`pushover` refuses a facade mode or a gap for an assembly, and the fix."""
 
 
 def pushover(
@@ -201,12 +261,12 @@ def pushover(
         )
     if not (isinstance(n_out, int) and not isinstance(n_out, bool) and n_out >= 2):
         raise ValueError(f"n_out (output samples) must be an integer >= 2; got n_out={n_out!r}.")
+    # the mode object, converted once (an assembly's top restraint has its own clearance)
+    unused = ASSEMBLY_STANDS if isinstance(block, Assembly) else GAP_NEEDS_ONE_SIDED
+    mode = as_mode(mode, gap, unused=unused)
     if isinstance(block, Assembly):
-        if as_mode(mode).one_sided or (gap is not None and gap != 0.0):
-            raise ValueError(
-                f"mode={mode!r}, gap={gap!r}: an Assembly stands on the ground with its own top "
-                "support; leave mode='two_sided' and gap=0 (set Assembly.stack(top=, gap=))."
-            )
+        if mode.one_sided:
+            raise ValueError(f"mode={mode!r}: {ASSEMBLY_STANDS}")
         if overburden != 0.0:
             raise ValueError(
                 f"overburden={overburden!r} N/m: an Assembly carries its own overburden; build "
@@ -228,7 +288,6 @@ def pushover(
         "The load per metre of wall length at the top.",
         scalar=True,
     )
-    mode = as_mode(mode, gap)
     if beta is None:
         beta = float(beta_dejong(block))
     p = float(block.p)

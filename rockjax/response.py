@@ -106,16 +106,7 @@ class Response(eqx.Module):
         """
         import pandas as pd
 
-        t = _concrete(self.t)
-        if t is None:
-            raise ValueError(
-                "Response.to_dataframe needs concrete values: call it outside jit/vmap."
-            )
-        if t.ndim != 1:
-            raise ValueError(
-                f"Response.to_dataframe takes one run; this Response holds a batch (t has shape "
-                f"{t.shape}). Pick run i first: jax.tree.map(lambda x: x[i], resp)."
-            )
+        t = one_run_times(self)
         columns = {
             "theta [rad]": self.theta,
             "theta_dot [rad/s]": self.theta_dot,
@@ -218,6 +209,21 @@ class Response(eqx.Module):
 
 # Per-sample extras of the simulators whose units are known, for Response.to_dataframe.
 _EXTRA_UNITS = {"x": "m", "y": "m", "n_impacts": "-", "t_last_impact": "s", "pivot": "-"}
+
+
+def one_run_times(resp) -> np.ndarray:
+    """The sample times [s] of one concrete run, for its ``to_dataframe``: a traced run
+    (inside ``jit``/``vmap``) and a batch of runs are refused, with the fix."""
+    kind = type(resp).__name__
+    t = _concrete(resp.t)
+    if t is None:
+        raise ValueError(f"{kind}.to_dataframe needs concrete values: call it outside jit/vmap.")
+    if t.ndim != 1:
+        raise ValueError(
+            f"{kind}.to_dataframe takes one run; this {kind} holds a batch (t has shape "
+            f"{t.shape}). Pick run i first: jax.tree.map(lambda x: x[i], resp)."
+        )
+    return t
 
 
 def _concrete(x):

@@ -124,6 +124,63 @@ class Spectrum(eqx.Module):
         periods = jnp.broadcast_to(self.periods, jnp.shape(self.sd))
         return jnp.where(periods > 0, _omega(periods) * self.sd, 0.0)
 
+    def to_dataframe(self, labels: Sequence[str] | None = None):
+        """The spectrum as a ``pandas.DataFrame``, one row per period.
+
+        The index is ``"T [s]"``; the columns carry their units in their names:
+        ``"Sa [m/s^2]"``, ``"Sa [g]"``, ``"Sd [m]"`` and ``"Sv [m/s]"``. A spectrum of several
+        motions (``sa`` of shape ``(motion, period)``, e.g. :func:`rockjax.floor_spectra`'s,
+        one row per floor) gives these four columns per motion, suffixed with its label:
+        ``"Sa [g] floor 1"``. ``df.attrs["damping [-]"]`` holds the damping ratio. Write it
+        with ``df.to_csv(path)``.
+
+        Args:
+            labels: One label per motion of a 2-D spectrum; default ``"0"``, ``"1"``, ...
+                Not given for a 1-D spectrum.
+
+        Returns:
+            The ``pandas.DataFrame``.
+
+        Raises:
+            ValueError: inside ``jit``/``vmap``, for a spectrum of more than two axes, or
+                labels that do not match the motions.
+        """
+        import pandas as pd
+
+        periods, sd, sa = concrete(self.periods), concrete(self.sd), concrete(self.sa)
+        if periods is None or sd is None or sa is None:
+            raise ValueError("Spectrum.to_dataframe needs concrete values: call it outside jit.")
+        sv = np.asarray(self.sv, dtype=float)
+        values = {"Sa [m/s^2]": sa, "Sa [g]": sa / G, "Sd [m]": sd, "Sv [m/s]": sv}
+        if sd.ndim == 1:
+            if labels is not None:
+                raise ValueError(
+                    f"labels name the motions of a 2-D spectrum; this one is 1-D (one motion). "
+                    f"Drop labels={labels!r}."
+                )
+            columns = values
+        elif sd.ndim == 2:
+            n = sd.shape[0]
+            labels = [str(k) for k in range(n)] if labels is None else [str(v) for v in labels]
+            if len(labels) != n:
+                raise ValueError(
+                    f"labels must give one label per motion: {n} (the rows of sa); got "
+                    f"{len(labels)}."
+                )
+            columns = {
+                f"{name} {label}": v[k]
+                for k, label in enumerate(labels)
+                for name, v in values.items()
+            }
+        else:
+            raise ValueError(
+                f"Spectrum.to_dataframe takes a spectrum of one motion or one row of motions; "
+                f"sa has shape {sa.shape}. Index it first, e.g. spec.sa[i]."
+            )
+        df = pd.DataFrame(columns, index=pd.Index(periods, name="T [s]"))
+        df.attrs["damping [-]"] = float(concrete(self.damping))
+        return df
+
 
 class RotDSpectrum(eqx.Module):
     """Rotated response spectra of two horizontal components (Boore 2010).
@@ -158,6 +215,35 @@ class RotDSpectrum(eqx.Module):
             sd=jnp.percentile(self.sd_angles, percentile, axis=-2),
             sa=jnp.percentile(self.sa_angles, percentile, axis=-2),
         )
+
+    def to_dataframe(self):
+        """RotD50 and RotD100 as a ``pandas.DataFrame``, one row per period.
+
+        The index is ``"T [s]"``; the columns are :meth:`Spectrum.to_dataframe`'s of
+        :attr:`rotd50` and of :attr:`rotd100`, suffixed ``" RotD50"`` and ``" RotD100"``
+        (``"Sa [g] RotD50"``); ``df.attrs`` holds ``damping [-]`` and ``n_angles``. Write it
+        with ``df.to_csv(path)``.
+
+        Returns:
+            The ``pandas.DataFrame``.
+
+        Raises:
+            ValueError: inside ``jit``/``vmap``, or for a batch of spectra.
+        """
+        import pandas as pd
+
+        if np.ndim(self.sd_angles) != 2:
+            raise ValueError(
+                "RotDSpectrum.to_dataframe takes the spectra of one pair of components; "
+                f"sd_angles has shape {np.shape(self.sd_angles)}. Index one pair first."
+            )
+        parts = [
+            spec.to_dataframe().add_suffix(f" {name}")
+            for name, spec in (("RotD50", self.rotd50), ("RotD100", self.rotd100))
+        ]
+        df = pd.concat(parts, axis=1)
+        df.attrs.update(parts[0].attrs, n_angles=int(np.shape(self.angles)[0]))
+        return df
 
     @property
     def rotd50(self) -> Spectrum:

@@ -20,7 +20,7 @@ if not os.environ.get(_CACHE_VAR):
 # tests/test_dem.py: 127 s against 85 s, all passing). The programs are the same HLO; results
 # differ from the default level only at round-off (measured 1e-14 of a DEM history's peak:
 # LLVM then fuses fewer multiply-adds). Benchmarks, notebooks and the demo keep the default.
-# A user's own XLA_FLAGS are left alone.
+# A user's own XLA_FLAGS replace these.
 os.environ.setdefault(
     "XLA_FLAGS", "--xla_backend_optimization_level=0 --xla_llvm_disable_expensive_passes=true"
 )
@@ -30,6 +30,10 @@ import jaxtyping  # noqa: E402
 import pytest  # noqa: E402
 
 import rockjax  # noqa: E402  (enables float64)
+
+# rockjax's XLA:CPU option, added to the flags above (or to the user's), before any JAX
+# computation: the suite runs the time loops as users get them (docs/conventions.md, "XLA flags").
+rockjax.compilation.configure_cpu()
 
 # rockjax turns its own persistent cache on at the first eager compile, in the user's cache
 # folder unless JAX's cache is set (as above): off for the suite, and for the processes it

@@ -142,3 +142,23 @@ def coulomb_slip(ag, dt, mu, g=G):
                 vel, sense = 0.0, start(a0 + s * t)
         u[k + 1] = pos
     return u
+
+
+def assert_same_table(df, ref, rtol, atol):
+    """Two DataFrames hold the same index and columns, to ``rtol`` / ``atol`` (a table
+    written to CSV by the ``rockjax`` command and read back, against the API's)."""
+    assert list(df.columns) == list(ref.columns)
+    np.testing.assert_allclose(df.index.to_numpy(), ref.index.to_numpy(), rtol=rtol)
+    np.testing.assert_allclose(df.to_numpy(), ref.to_numpy(), rtol=rtol, atol=atol)
+
+
+def assert_refused(argv, match, out):
+    """``rockjax <argv> --out <out>`` refuses its options: exit status 2, one ``error: ...``
+    line on stderr matching the regular expression ``match``, and no output folder."""
+    import re
+
+    rc, _, stderr = run_cli([*argv, "--out", out])
+    assert rc == 2
+    assert stderr.startswith("error: ") and stderr.count("\n") == 1, stderr
+    assert re.search(match, stderr), stderr
+    assert not out.exists()

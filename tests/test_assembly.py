@@ -940,3 +940,28 @@ def test_squat_stack_slides_as_rigid_coulomb(joint):
     for k in range(2):  # the stack slides as one
         assert x[-1, k] == pytest.approx(u[-1], rel=COULOMB_RTOL)
         assert np.max(np.abs(x[:, k] - u)) < COULOMB_RTOL * np.max(np.abs(u))
+
+
+def test_assembly_response_to_dataframe():
+    """The table holds each block's series and the saved energy and forces, named with
+    their units; the run's scalars in ``attrs``; a batch is refused."""
+    blk = rj.Block(b=0.2, h=0.75)
+    wall = Assembly.stack([blk, blk], top="restrained")
+    gm = rj.GroundMotion.ricker(pga_g=0.4, period=0.3, dt=0.005)
+    r = simulate_assembly(wall, gm, beta=1e-3, save=("energy", "forces"))
+    df = r.to_dataframe()
+    assert df.index.name == "t [s]" and len(df) == gm.n
+    for k in range(2):
+        np.testing.assert_array_equal(df[f"theta_{k} [rad]"], np.asarray(r.theta)[:, k])
+        np.testing.assert_array_equal(df[f"y_{k} [m]"], np.asarray(r.y)[:, k])
+        np.testing.assert_array_equal(
+            df[f"normal_force_{k} [N]"], np.asarray(r.normal_forces)[:, k]
+        )
+        assert df.attrs[f"d_max_{k} [m]"] == float(r.d_max[k])
+    np.testing.assert_array_equal(df["restraint_force [N]"], np.asarray(r.restraint_force))
+    np.testing.assert_array_equal(df["energy [J]"], np.asarray(r.energy))
+    assert "wall_force_0 [N]" not in df and df.attrs["n_blocks"] == 2
+    assert df.attrs["status"] == 0 and df.attrs["overturned"] is False
+    batch = jax.tree.map(lambda x: jnp.stack([x, x]), r)
+    with pytest.raises(ValueError, match="takes one run"):
+        batch.to_dataframe()

@@ -329,12 +329,13 @@ def test_facade_in_a_building_ida_equals_single_runs():
         facade,
         recs,
         scales,
+        model=rj.DEM(beta=6e-3),
+        mode=rj.Facade(gap=1e-3),
         tail=0.5,
         progress=False,
         support_motion=bldg,
         storey=2,
         wall_motion=bldg,
-        **kw,
     )
     assert ds.attrs["storey"] == 2
     t_end = float(ds.attrs["t_end"])
@@ -387,12 +388,12 @@ def test_walls_in_a_building_bad_input_is_refused(user_view):
             FACADE,
             [gm],
             [1.0],
-            beta=1e-3,
+            model=rj.DEM(beta=1e-3),
+            mode=rj.Facade(gap=1e-3),
             progress=False,
             support_motion=bldg,
             storey=2,
             wall_motion=other,
-            **kw,
         )
 
 

@@ -221,7 +221,7 @@ def test_row_ida_equals_single_runs():
     row = Assembly.row([SLENDER, SQUAT])
     beta = float(rj.beta_dejong(SQUAT))
     rec = rj.GroundMotion(ag=PULSE.ag[: int(1.2 / PULSE.dt)], dt=PULSE.dt, name="pulse")
-    ds = rj.ida(row, [rec], [1.0], beta=beta, tail=0.0, progress=False)
+    ds = rj.ida(row, [rec], [1.0], model=rj.DEM(beta=beta), tail=0.0, progress=False)
     n = int(round(float(ds.attrs["t_end"]) / rec.dt)) + 1
     ag = np.zeros(n)
     ag[: rec.n] = np.asarray(rec.ag)

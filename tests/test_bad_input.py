@@ -848,7 +848,7 @@ def test_huge_initial_velocity_overturns():
 
 
 def _ida(records=(GM,), scales=(0.5, 1.0), **kw):
-    kw = {"beta": 2e-3, "progress": False} | kw
+    kw = {"model": rj.DEM(beta=2e-3), "progress": False} | kw
     return rj.ida(BLOCK, list(records), scales, **kw)
 
 
@@ -859,12 +859,17 @@ IDA_CASES = [
     _case("scales-2d", lambda: _ida(scales=[[0.5, 1.0]]), r"\bscales\b", r"1-D"),
     _case("model", lambda: _ida(model="fem"), r"\bmodel\b", r"housner"),
     _case("mode", lambda: _ida(mode="parapet"), r"\bmode\b", r"two_sided"),
-    _case("dem-no-beta", lambda: _ida(beta=None), r"\bbeta\b", r"beta_dejong"),
-    _case("dem-beta-negative", lambda: _ida(beta=-1e-3), r"\bbeta\b", r">= 0"),
-    _case("dem-with-e", lambda: _ida(e=0.9), r"\be\b", r"beta"),
-    _case("housner-with-beta", lambda: _ida(model="housner"), r"\bbeta\b", r"takes e"),
-    _case("housner-gap", lambda: _ida(model="housner", beta=None, gap=1e-3), r"\bgap\b", r"gap=0"),
-    _case("gap-negative", lambda: _ida(mode="one_sided", gap=-1e-3), r"\bgap\b", r"e\.g\."),
+    _case("dem-no-beta", lambda: _ida(model="dem"), r"\bbeta\b", r"beta_dejong"),
+    _case("dem-beta-negative", lambda: rj.DEM(beta=-1e-3), r"\bbeta\b", r">= 0"),
+    _case("dem-with-e", lambda: rj.as_model("dem", beta=2e-3, e=0.9), r"\be\b", r"beta"),
+    _case("housner-with-beta", lambda: rj.as_model("housner", beta=2e-3), r"\bbeta\b", r"takes e"),
+    _case(
+        "housner-gap",
+        lambda: _ida(model=rj.Housner(), mode=rj.Facade(gap=1e-3)),
+        r"\bgap\b",
+        r"gap=0",
+    ),
+    _case("gap-negative", lambda: _ida(mode=rj.Facade(gap=-1e-3)), r"\bgap\b", r"e\.g\."),
     _case("im-malformed", lambda: _ida(im="sa(x)"), r"\bim\b", r"sa\(0\.5\)"),
     _case("im-unknown", lambda: _ida(im="pgd"), r"\bim\b", r"sa\(0\.5\)"),
     _case("im-sa0", lambda: _ida(im="sa(0)"), r"\bim\b", r"im='pga'"),
@@ -875,13 +880,13 @@ IDA_CASES = [
     _case("records-same-name", lambda: _ida(records=(GM, GM)), r"\bnames?\b", r"distinct|rename"),
     _case(
         "records-ndarray",
-        lambda: rj.ida(BLOCK, [np.zeros(10)], [1.0], beta=2e-3, progress=False),
+        lambda: _ida(records=[np.zeros(10)], scales=[1.0]),
         r"\brecords\b",
         r"GroundMotion",
     ),
     _case(
         "records-one-motion",
-        lambda: rj.ida(BLOCK, GM, [1.0], beta=2e-3, progress=False),
+        lambda: rj.ida(BLOCK, GM, [1.0], model=rj.DEM(beta=2e-3), progress=False),
         r"\brecords\b",
         r"\[",
     ),
@@ -893,20 +898,20 @@ IDA_CASES = [
     ),
     _case(
         "dem-beta-array",
-        lambda: _ida(beta=np.array([1e-3, 2e-3])),
+        lambda: rj.DEM(beta=np.array([1e-3, 2e-3])),
         r"\bbeta\b",
         r"one number",
     ),
-    _case("dem-beta-text", lambda: _ida(beta="2e-3"), r"\bbeta\b", r"quotes"),
+    _case("dem-beta-text", lambda: rj.DEM(beta="2e-3"), r"\bbeta\b", r"quotes"),
     _case(
         "housner-e-text",
-        lambda: _ida(model="housner", beta=None, e="0.9"),
+        lambda: rj.Housner(e="0.9"),
         r"\be\b",
         r"quotes",
     ),
     _case(
         "housner-e-above-1",
-        lambda: _ida(model="housner", beta=None, e=1.5),
+        lambda: _ida(model=rj.Housner(e=1.5)),
         r"\be\b",
         r"0 < e <= 1",
     ),
@@ -920,17 +925,22 @@ IDA_CASES = [
     _case(
         # a block wider than tall: every run would fail (e_H = -0.2), refused before any
         "housner-squat-default-e",
-        lambda: rj.ida(rj.Block(**SQUAT), [GM], [1.0], model="housner", progress=False),
+        lambda: rj.ida(rj.Block(**SQUAT), [GM], [1.0], model=rj.Housner(), progress=False),
         r"e_H = -0\.2",
         r"pass e explicitly, 0 < e <= 1",
     ),
     _case(
         "housner-e-negative",
-        lambda: _ida(model="housner", beta=None, e=-0.5),
+        lambda: _ida(model=rj.Housner(e=-0.5)),
         r"\be\b.*-0\.5",
         r"0 < e <= 1",
     ),
-    _case("dem-gap-two-sided", lambda: _ida(gap=1e-3), r"\bgap\b.*ignored", r"mode='one_sided'"),
+    _case(
+        "dem-gap-two-sided",
+        lambda: rj.as_mode("two_sided", 1e-3),
+        r"\bgap\b.*ignored",
+        r"mode='one_sided'",
+    ),
 ]
 
 
@@ -1199,7 +1209,7 @@ def test_calibration_refuses(case: Bad):
 
 
 def _plan(cases=None, records=None, **kw):
-    cases = [campaign.Case("c", BLOCK, "set", beta=2e-3)] if cases is None else cases
+    cases = [campaign.Case("c", BLOCK, "set", model=rj.DEM(beta=2e-3))] if cases is None else cases
     records = {"set": [GM]} if records is None else records
     return campaign.plan(cases, records, **{"scales": [0.5, 1.0]} | kw)
 
@@ -1208,25 +1218,25 @@ CAMPAIGN_CASES = [
     _case("cases-empty", lambda: _plan(cases=[]), r"\bcases\b", r"Case"),
     _case(
         "cases-one-case",
-        lambda: _plan(cases=campaign.Case("c", BLOCK, "set", beta=2e-3)),
+        lambda: _plan(cases=campaign.Case("c", BLOCK, "set", model=rj.DEM(beta=2e-3))),
         r"\bcases\b",
         r"sequence",
     ),
     _case(
         "case-name-path",
-        lambda: _plan(cases=[campaign.Case("a/b", BLOCK, "set", beta=2e-3)]),
+        lambda: _plan(cases=[campaign.Case("a/b", BLOCK, "set", model=rj.DEM(beta=2e-3))]),
         r"a/b",
         r"letters, digits",
     ),
     _case(
         "case-names-repeat",
-        lambda: _plan(cases=[campaign.Case("c", BLOCK, "set", beta=2e-3)] * 2),
+        lambda: _plan(cases=[campaign.Case("c", BLOCK, "set", model=rj.DEM(beta=2e-3))] * 2),
         r"case names",
         r"distinct",
     ),
     _case(
         "record-set-missing",
-        lambda: _plan(cases=[campaign.Case("c", BLOCK, "other", beta=2e-3)]),
+        lambda: _plan(cases=[campaign.Case("c", BLOCK, "other", model=rj.DEM(beta=2e-3))]),
         r"other",
         r"records given",
     ),

@@ -116,7 +116,8 @@ def test_runner_matches_ida(study, model):
     law = LAW if model == "three_branch" else None
     (g,) = study.group_records(recs)
     t_end = (g.n - 1) * g.dt
-    ds = rj.ida(block, recs, scales, model=model, beta=beta, t_end=t_end, progress=False, law=law)
+    model_obj = rj.as_model(model, beta=beta, law=law)
+    ds = rj.ida(block, recs, scales, model=model_obj, t_end=t_end, progress=False)
     rows = np.repeat(np.arange(len(recs)), scales.size)
     col, status, peak = study.run_pairs(
         block,
@@ -156,9 +157,8 @@ def test_facade_on_moving_walls_matches_ida(study):
         block,
         recs,
         scales,
-        model="three_branch",
-        mode="one_sided",
-        law=LAW,
+        model=rj.ThreeBranch(LAW),
+        mode=rj.Facade(),
         wall_motion=bldg,
         t_end=(g.n - 1) * g.dt,
         progress=False,

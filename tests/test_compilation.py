@@ -201,7 +201,7 @@ def test_a_second_process_loads_the_solver_from_the_cache(tmp_path):
     # length (same bucket), loads the solver from it instead of compiling it.
     env = os.environ | {compilation.CACHE_ENV: str(tmp_path / "cache")}
 
-    def cache_hits(duration):
+    def cache_hits(duration, compiles):
         out = subprocess.run(
             [sys.executable, "-c", _SECOND_PROCESS, str(duration)],
             env=env,
@@ -209,14 +209,93 @@ def test_a_second_process_loads_the_solver_from_the_cache(tmp_path):
             text=True,
         )
         assert out.returncode == 0, out.stderr
-        assert "compiling the Housner solver" in out.stderr, out.stderr
+        # the notice comes only with a compilation
+        assert ("compiling the Housner solver" in out.stderr) == compiles, out.stderr
         return int(out.stdout.split()[-1])
 
-    assert cache_hits(4.0) == 0
+    assert cache_hits(4.0, compiles=True) == 0
     # the program is kept traced (exported) and its compiled form is in JAX's cache
     assert len(list((tmp_path / "cache" / compilation.EXPORT_SUBDIR).glob("solve-*"))) == 1
     assert any(path.name.startswith("jit_call") for path in (tmp_path / "cache").iterdir())
-    assert cache_hits(6.0) >= 1
+    assert cache_hits(6.0, compiles=False) >= 1
+
+
+# ----------------------------------------------------------------------------- XLA:CPU's option
+
+_XLA_OPTION_PROCESS = textwrap.dedent(
+    """
+    import json, os, sys, warnings
+    if sys.argv[1] == "started":  # the user's JAX computation before `import rockjax`
+        import jax.numpy as jnp
+        jnp.zeros(1).block_until_ready()
+    import rockjax as rj
+    from jax._src import xla_bridge  # JAX's own answer, independent of rockjax's
+    got = {"after_import": os.environ.get("XLA_FLAGS"),
+           "started_by_import": sys.argv[1] != "started" and xla_bridge.backends_are_initialized()}
+    if sys.argv[1] == "merge":  # configure_cpu on given flags, before the backend starts
+        for given in ("--a=1", "--xla_backend_extra_options=k=v --b", "--xla_backend_extra_options="):
+            os.environ["XLA_FLAGS"] = given
+            got[given] = [rj.compilation.configure_cpu(keep_user_flags=True),
+                          rj.compilation.configure_cpu(), os.environ["XLA_FLAGS"]]
+        os.environ["XLA_FLAGS"] = "--xla_force_host_platform_device_count=2"
+        got["devices"] = [rj.compilation.configure_cpu(), os.environ["XLA_FLAGS"]]
+        import jax
+        got["devices"].append(jax.local_device_count())  # XLA parsed the merged flags
+    f = rj.compilation.persistent_jit(rj.relations.e_housner)
+    float(f(0.2))  # the first compile: the notice, if any
+    os.environ["XLA_FLAGS"] = "--c"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got["late"] = [rj.compilation.configure_cpu(), os.environ["XLA_FLAGS"],
+                       [str(w.category.__name__) for w in caught]]
+    json.dump(got, sys.stdout)
+    """
+)
+
+
+@pytest.mark.parametrize("case", ["unset", "user's flags", "opted out", "started", "merge"])
+def test_the_xla_option_is_added_only_where_the_user_chose_nothing(case):
+    # In a new process (XLA reads XLA_FLAGS once). Reference: the variable as set by hand,
+    # JAX's own record of whether its backend started, XLA's device count from the merged
+    # flags, and the notice on stderr.
+    opt = "--xla_backend_extra_options=" + compilation.XLA_CPU_OPTION
+    env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", compilation.NO_TUNING_ENV)}
+    if case == "user's flags":
+        env["XLA_FLAGS"] = "--xla_force_host_platform_device_count=1"
+    if case == "opted out":
+        env[compilation.NO_TUNING_ENV] = "1"
+    out = subprocess.run(
+        [sys.executable, "-c", _XLA_OPTION_PROCESS, case], env=env, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    got = json.loads(out.stdout)
+    assert not got["started_by_import"]  # else the option would come too late
+    notice = "is set without" if case == "user's flags" else "started before `import rockjax`"
+    said = [line for line in out.stderr.splitlines() if compilation.XLA_CPU_OPTION in line]
+    assert said == ([] if case in ("unset", "opted out", "merge") else [said[0]])
+    if said:
+        assert notice in said[0] and "configure_cpu()" in said[0]
+    want_after_import = {
+        "unset": opt,
+        "merge": opt,
+        "user's flags": env.get("XLA_FLAGS"),
+        "opted out": None,
+        "started": None,
+    }[case]
+    assert got["after_import"] == want_after_import
+    if case == "merge":
+        assert got["--a=1"] == [False, True, f"--a=1 {opt}"]
+        assert got["--xla_backend_extra_options=k=v --b"] == [
+            False,
+            True,
+            f"--xla_backend_extra_options=k=v,{compilation.XLA_CPU_OPTION} --b",
+        ]
+        assert got["--xla_backend_extra_options="] == [False, True, opt]
+        assert got["devices"] == [True, f"--xla_force_host_platform_device_count=2 {opt}", 2]
+    # after the backend started: too late, said by a warning, the variable left as it was
+    assert got["late"] == (
+        [False, "--c", []] if case == "opted out" else [False, "--c", ["RuntimeWarning"]]
+    )
 
 
 # ----------------------------------------------------------------------------- kept programs
@@ -295,11 +374,13 @@ def test_a_key_array_argument_goes_to_filter_jit(kept):
     assert dict(f.sources) == {"plain": 1}
 
 
-def test_a_program_with_a_callback_runs_but_is_not_kept(kept):
+def test_a_program_with_a_callback_runs_but_is_not_kept(kept, caplog):
     # free_rocking_period checks theta0 < eta with eqx.error_if: a Python callback
     f = compilation.persistent_jit(rj.relations.free_rocking_period)
     args = (jnp.asarray(2.0), jnp.asarray(0.2), jnp.asarray(0.1))
-    got = [float(f(*args)), float(f(*args))]
+    with caplog.at_level(logging.INFO, logger="rockjax"):
+        got = [float(f(*args)), float(f(*args))]
+    assert caplog.records == []  # expected of a callback: no notice
     assert dict(f.sources) == {"not kept": 1}  # traced once, then run from memory
     assert got[0] == got[1] == pytest.approx(4.0 / 2.0 * np.arccosh(1.0 / (1.0 - 0.5)), rel=1e-14)
     assert not kept.exists() or not list(kept.iterdir())
@@ -307,15 +388,30 @@ def test_a_program_with_a_callback_runs_but_is_not_kept(kept):
         f(jnp.asarray(2.0), jnp.asarray(0.2), jnp.asarray(0.3)).block_until_ready()
 
 
-def test_a_damaged_kept_program_is_exported_again(kept):
+def test_a_damaged_kept_program_is_exported_again(kept, caplog):
     eta = jnp.asarray(0.3)
     compilation.persistent_jit(rj.relations.e_housner)(eta)
     (path,) = kept.glob("e_housner-*.jaxexp")
     path.write_bytes(b"not a program")
     f = compilation.persistent_jit(rj.relations.e_housner)
-    np.testing.assert_allclose(float(f(eta)), _e_h(0.3), rtol=1e-15)
+    with caplog.at_level(logging.INFO, logger="rockjax"):
+        np.testing.assert_allclose(float(f(eta)), _e_h(0.3), rtol=1e-15)
     assert dict(f.sources) == {"exported": 1}
     assert path.read_bytes() != b"not a program"
+    (said,) = [r.getMessage() for r in caplog.records]  # what failed, and what rockjax does
+    assert str(path) in said and "could not be loaded" in said and "again" in said
+
+
+def test_an_unwritable_kept_folder_is_said_once_and_the_programs_run(kept, caplog):
+    kept.parent.mkdir(parents=True, exist_ok=True)
+    kept.write_text("a file where the kept programs' folder belongs")
+    with caplog.at_level(logging.INFO, logger="rockjax"):
+        for eta in (0.2, 0.3):  # two programs (Python floats are static), one notice
+            f = compilation.persistent_jit(rj.relations.e_housner)
+            np.testing.assert_allclose(float(f(eta)), _e_h(eta), rtol=1e-15)
+            assert dict(f.sources) == {"exported": 1}  # from memory
+    (said,) = [r.getMessage() for r in caplog.records]
+    assert str(kept) in said and compilation.CACHE_ENV in said
 
 
 def test_without_the_cache_a_persistent_jit_is_filter_jit():

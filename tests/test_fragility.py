@@ -230,7 +230,7 @@ def test_end_to_end_on_a_tiny_housner_ida():
         rj.GroundMotion.ricker(3.0, 0.6, dt=0.005, duration=1.2, name="ricker_long"),
     ]
     block = rj.Block(b=0.2, h=1.0, length=1.0, rho=1800.0, E=1e9, nu=0.2)
-    ds = rj.ida(block, records, np.linspace(0.1, 2.5, 12), model="housner", progress=False)
+    ds = rj.ida(block, records, np.linspace(0.1, 2.5, 12), model=rj.Housner(), progress=False)
     for first_collapse in (False, True):
         frag = fragility(ds, n_boot=100, first_collapse=first_collapse)
         assert frag.n_runs == int((ds.status == 0).sum()) and frag.im_units == "m/s^2"

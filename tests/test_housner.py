@@ -657,14 +657,21 @@ def test_records_of_other_lengths_and_steps_do_not_compile_again(block):
 
 
 def test_a_compiling_call_says_so_once(block, caplog):
+    # Reference: a count of XLA compilations. The notice comes with the one call that
+    # compiles and says what it compiles; another record, e or block of the same kind runs
+    # that program, silently.
     kw = dict(max_impacts_per_step=61)  # a configuration that no other test compiles
-    with caplog.at_level(logging.INFO, logger="rockjax"):
+    with caplog.at_level(logging.INFO, logger="rockjax"), count_compiles() as compiles:
         rj.simulate_housner(block, _pulse(200, 0.01), **kw)
-        rj.simulate_housner(block, _pulse(300, 0.01), **kw)
+        n_first = len(compiles)
+        rj.simulate_housner(block, _pulse(300, 0.01), e=0.9, **kw)
+        rj.simulate_housner(rj.Block(b=0.2, h=1.5), _pulse(300, 0.01), **kw)
+    assert n_first >= 1 and len(compiles) == n_first
     notes = [r.getMessage() for r in caplog.records if "compiling the Housner" in r.getMessage()]
     assert notes == [
-        f"rockjax: compiling the Housner solver for records of <= "
-        f"{rj.compilation.bucket_length(200)} samples (once per session)..."
+        f"rockjax: compiling the Housner solver (two-sided) for records of <= "
+        f"{rj.compilation.bucket_length(200)} samples (once per session: every block, e, scale "
+        "and record of this kind reuses it)..."
     ]
 
 

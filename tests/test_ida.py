@@ -31,14 +31,14 @@ def _records():
 def dem_ds():
     block = rj.Block(**SMALL)
     return rj.ida(
-        block, _records(), SCALES, model="dem", beta=BETA, tail=0.5, chunk_size=3, progress=False
+        block, _records(), SCALES, model=rj.DEM(beta=BETA), tail=0.5, chunk_size=3, progress=False
     )
 
 
 @pytest.fixture(scope="module")
 def housner_ds():
     block = rj.Block(**SMALL)
-    return rj.ida(block, _records(), SCALES, model="housner", tail=0.5, progress=False)
+    return rj.ida(block, _records(), SCALES, model=rj.Housner(), tail=0.5, progress=False)
 
 
 def _single(model, block, ds):
@@ -107,7 +107,7 @@ def test_chunk_size_does_not_change_results(dem_ds):
     # Reference: the same IDA in one chunk of 64 (dem_ds used chunks of 3, the last padded).
     block = rj.Block(**SMALL)
     one = rj.ida(
-        block, _records(), SCALES, model="dem", beta=BETA, tail=0.5, chunk_size=64, progress=False
+        block, _records(), SCALES, model=rj.DEM(beta=BETA), tail=0.5, chunk_size=64, progress=False
     )
     for var in ("max_d_over_b", "max_theta_over_eta", "collapse", "status"):
         np.testing.assert_array_equal(one[var], dem_ds[var])
@@ -121,7 +121,7 @@ def test_failed_run_is_flagged_and_batch_kept(housner_ds, capsys):
         rj.Block(**SMALL),
         _records(),
         scales,
-        model="housner",
+        model=rj.Housner(),
         tail=0.5,
         chunk_size=4,
         progress=True,
@@ -170,7 +170,7 @@ def test_sine_pulse_collapses_only_above_uplift():
     uplift = G * float(np.tan(block.eta))
     pulse = rj.GroundMotion.sine_cycle(uplift, 1.0, dt=0.01, duration=1.0, name="sine_T1")
     scales = np.array([0.5, 0.9, 0.99, 1.5, 3.0, 5.0])
-    ds = rj.ida(block, [pulse], scales, model="housner", tail=1.5, progress=False)
+    ds = rj.ida(block, [pulse], scales, model=rj.Housner(), tail=1.5, progress=False)
     below = ds["pga_scaled"] <= uplift
     assert not ds["collapse"].where(below, False).any()
     np.testing.assert_array_equal(ds["max_theta_over_eta"].where(below, 0.0), 0.0)
@@ -192,9 +192,7 @@ def test_netcdf_round_trip(dem_ds, tmp_path):
     "kwargs, match",
     [
         (dict(model="dem"), "needs beta"),
-        (dict(model="dem", beta=BETA, e=0.9), "Housner parameter"),
-        (dict(model="housner", beta=BETA), "not a Housner parameter"),
-        (dict(model="housner", gap=0.001), "no facade gap"),
+        (dict(model=rj.Housner(), mode=rj.Facade(gap=0.001)), "no facade gap"),
         (dict(model="housner", scales=[0.5, 0.2]), "strictly increasing"),
         (dict(model="housner", scales=[0.5, np.nan]), "finite"),
         (dict(model="housner", chunk_size=0), "chunk_size"),
@@ -211,7 +209,7 @@ def test_invalid_records():
     block = rj.Block(**SMALL)
     rec = _records()[0]
     with pytest.raises(ValueError, match="distinct"):
-        rj.ida(block, [rec, rec], model="housner", progress=False)
+        rj.ida(block, [rec, rec], model=rj.Housner(), progress=False)
 
 
 _SHARDED = """
@@ -227,7 +225,7 @@ recs = [
 ]
 blk = rj.Block(b=0.2, h=1.0)
 sc = np.array([0.3, 0.9, 1.5, 2.1, 2.5])
-kw = dict(model="dem", beta=2e-3, tail=0.5, chunk_size=3, progress=False)
+kw = dict(model=rj.DEM(beta=2e-3), tail=0.5, chunk_size=3, progress=False)
 two = rj.ida(blk, recs, sc, **kw)
 one = rj.ida(blk, recs, sc, devices=jax.local_devices()[:1], **kw)
 for v in ("max_d_over_b", "max_theta_over_eta", "collapse", "status"):
@@ -267,7 +265,7 @@ def test_intensity_measures(housner_ds):
     np.testing.assert_allclose(housner_ds["pgv"][0], 3.0 * 0.5 / np.pi, rtol=trapz_rtol)
 
     block = rj.Block(**SMALL)
-    kw = dict(model="housner", tail=0.5, progress=False)
+    kw = dict(model=rj.Housner(), tail=0.5, progress=False)
     sa = rj.ida(block, _records(), SCALES, im="Sa(0.5)", **kw)
     assert sa.attrs["im"] == "sa(0.5)"
     ref = [float(rj.response_spectrum(r, [0.5]).sa[0]) for r in _records()]
@@ -287,7 +285,7 @@ def test_progress_bar_per_chunk(dem_ds, capsys):
     """A tqdm bar over the runs on request, advanced per chunk; none by default when stderr is
     not a terminal (as under pytest); the results do not depend on it."""
     block = rj.Block(**SMALL)
-    kw = dict(model="dem", beta=BETA, tail=0.5, chunk_size=3)  # dem_ds's chunks: no new compile
+    kw = dict(model=rj.DEM(beta=BETA), tail=0.5, chunk_size=3)  # dem_ds's chunks: no new compile
     capsys.readouterr()
     ds = rj.ida(block, _records(), SCALES, progress=True, **kw)
     err = capsys.readouterr().err
@@ -307,7 +305,8 @@ def test_dem_joint_reaches_every_run(dem_ds):
     block = rj.Block(**SMALL)
     corners = rj.Joint(n_sub=2)
     rec = _records()[0]
-    ds = rj.ida(block, [rec], SCALES[:2], beta=BETA, tail=0.5, joint=corners, progress=False)
+    model = rj.DEM(beta=BETA, joint=corners)
+    ds = rj.ida(block, [rec], SCALES[:2], model=model, tail=0.5, progress=False)
     assert ds.attrs["joint"] == repr(corners)
     for k, s in enumerate(SCALES[:2]):
         g = rj.GroundMotion(ag=s * np.asarray(rec.ag), dt=rec.dt)
@@ -319,7 +318,7 @@ def test_dem_joint_reaches_every_run(dem_ds):
     default = dem_ds["max_theta_over_eta"][:1, :2].values
     assert not np.allclose(default, ds["max_theta_over_eta"].values, rtol=1e-3)
     with pytest.raises(ValueError, match="joint .* is not a Housner parameter"):
-        rj.ida(block, [rec], SCALES[:2], model="housner", joint=corners, progress=False)
+        rj.as_model("housner", joint=corners)
 
 
 def _pulses():
@@ -338,11 +337,10 @@ def test_three_branch_with_the_rigid_law_is_the_housner_ida():
         block,
         _pulses(),
         scales,
-        model="three_branch",
-        law=rj.ThreeBranchLaw.rigid(block),
+        model=rj.ThreeBranch(rj.ThreeBranchLaw.rigid(block)),
         progress=False,
     )
-    hs = rj.ida(block, _pulses(), scales, model="housner", progress=False)
+    hs = rj.ida(block, _pulses(), scales, model=rj.Housner(), progress=False)
     np.testing.assert_allclose(tb.max_theta_over_eta, hs.max_theta_over_eta, rtol=1e-9, atol=1e-12)
     assert (tb.collapse.values == hs.collapse.values).all()
     assert tb.attrs["model"] == "three_branch" and tb.attrs["law_Delta_u"] == 1.0
@@ -354,8 +352,8 @@ def test_three_branch_law_changes_the_ida():
     block = rj.Block(b=0.25, h=3.0)
     law = rj.ThreeBranchLaw(lambda_0=0.25 / 3.0, Delta_1=0.05, Delta_2=0.2, Delta_u=0.8)
     scales = [0.4, 0.8, 1.6]
-    tb = rj.ida(block, _pulses(), scales, model="three_branch", law=law, progress=False)
-    hs = rj.ida(block, _pulses(), scales, model="housner", progress=False)
+    tb = rj.ida(block, _pulses(), scales, model=rj.ThreeBranch(law), progress=False)
+    hs = rj.ida(block, _pulses(), scales, model=rj.Housner(), progress=False)
     assert (tb.status.values == 0).all()
     assert not np.allclose(tb.max_theta_over_eta, hs.max_theta_over_eta)
 
@@ -370,12 +368,12 @@ def test_wall_motion_reaches_every_run():
         block,
         _pulses(),
         scales,
-        model="housner",
+        model=rj.Housner(),
         mode="one_sided",
         wall_motion=bldg,
         progress=False,
     )
-    fixed = rj.ida(block, _pulses(), scales, model="housner", mode="one_sided", progress=False)
+    fixed = rj.ida(block, _pulses(), scales, model=rj.Housner(), mode="one_sided", progress=False)
     assert not np.allclose(ds.max_theta_over_eta, fixed.max_theta_over_eta)
     np.testing.assert_allclose(ds.attrs["building_periods"], np.asarray(bldg.periods))
     t_end = float(ds.attrs["t_end"])
@@ -401,12 +399,8 @@ def test_wall_motion_reaches_every_run():
     [
         (dict(model="three_branch"), "needs law"),
         (
-            dict(model="housner", law=rj.ThreeBranchLaw.rigid(rj.Block(b=0.25, h=3.0))),
-            "three_branch",
-        ),
-        (
             dict(
-                model="housner",
+                model=rj.Housner(),
                 mode="two_sided",
                 wall_motion=rj.ShearBuilding.uniform(n_storeys=1, storey_height=3.0, period=0.2),
             ),
@@ -425,8 +419,10 @@ def test_assembly_of_one_block_is_the_block_ida():
     block = rj.Block(b=0.25, h=3.0)
     beta = float(rj.beta_dejong(block))
     scales = [0.3, 0.9]
-    one = rj.ida(rj.Assembly.stack([block]), _pulses(), scales, beta=beta, progress=False)
-    ref = rj.ida(block, _pulses(), scales, beta=beta, progress=False)
+    one = rj.ida(
+        rj.Assembly.stack([block]), _pulses(), scales, model=rj.DEM(beta=beta), progress=False
+    )
+    ref = rj.ida(block, _pulses(), scales, model=rj.DEM(beta=beta), progress=False)
     np.testing.assert_allclose(one.max_theta_over_eta, ref.max_theta_over_eta, rtol=1e-8)
     assert (one.collapse.values == ref.collapse.values).all()
     assert one.attrs["n_blocks"] == 1
@@ -437,7 +433,7 @@ def test_assembly_ida_equals_single_runs():
     wall = rj.Assembly.stack([rj.Block(b=0.23, h=1.5), rj.Block(b=0.23, h=1.5)])
     beta = float(rj.beta_dejong(rj.Block(b=0.23, h=1.5)))
     rec = _pulses()[0]
-    ds = rj.ida(wall, [rec], [0.5, 2.0], beta=beta, tail=1.0, progress=False)
+    ds = rj.ida(wall, [rec], [0.5, 2.0], model=rj.DEM(beta=beta), tail=1.0, progress=False)
     n = int(round(float(ds.attrs["t_end"]) / rec.dt))
     dt = rj.stable_dt_assembly(wall, beta)
     for j, s in enumerate([0.5, 2.0]):
@@ -447,8 +443,8 @@ def test_assembly_ida_equals_single_runs():
         theta = float(np.max(np.asarray(r.theta_max) / np.asarray(r.eta)))
         assert float(ds.max_theta_over_eta[0, j]) == pytest.approx(theta, rel=1e-9)
         assert bool(ds.collapse[0, j]) == bool(r.overturned)
-    with pytest.raises(ValueError, match="Assembly runs with model='dem'"):
-        rj.ida(wall, [rec], [1.0], model="housner", progress=False)
+    with pytest.raises(ValueError, match=r"Assembly runs with the DEM only, model=rj\.DEM\(beta="):
+        rj.ida(wall, [rec], [1.0], model=rj.Housner(), progress=False)
 
 
 def _strip():
@@ -472,7 +468,13 @@ def _strip_records():
 def _strip_ida(building=None, storey=None):
     kw = {} if building is None else dict(support_motion=building, storey=storey)
     return rj.ida(
-        _strip(), _strip_records(), STRIP_SCALES, beta=STRIP_BETA, tail=0.5, progress=False, **kw
+        _strip(),
+        _strip_records(),
+        STRIP_SCALES,
+        model=rj.DEM(beta=STRIP_BETA),
+        tail=0.5,
+        progress=False,
+        **kw,
     )
 
 
@@ -514,9 +516,8 @@ def test_assembly_facade_on_moving_walls_equals_single_runs():
     facade = rj.Assembly.stack([blk, blk])
     bldg = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.2, damping=0.05)
     kw = dict(beta=STRIP_BETA, mode="one_sided", gap=1e-3)
-    ds = rj.ida(
-        facade, _strip_records(), STRIP_SCALES, tail=0.5, progress=False, wall_motion=bldg, **kw
-    )
+    ida_kw = dict(model=rj.DEM(beta=STRIP_BETA), mode=rj.Facade(gap=1e-3), wall_motion=bldg)
+    ds = rj.ida(facade, _strip_records(), STRIP_SCALES, tail=0.5, progress=False, **ida_kw)
     assert ds.attrs["mode"] == "one_sided" and ds.attrs["gap"] == 1e-3
     np.testing.assert_allclose(ds.attrs["building_periods"], np.asarray(bldg.periods))
     t_end = float(ds.attrs["t_end"])
@@ -549,7 +550,6 @@ def test_assembly_facade_on_moving_walls_equals_single_runs():
 def test_assembly_facade_ida_errors(user_view):
     bldg = rj.ShearBuilding.uniform(n_storeys=2, storey_height=3.0, period=0.3)
     for kwargs, match in [
-        (dict(gap=1e-3), "needs mode='one_sided'"),
         (dict(wall_motion=bldg), "one_sided"),
         (
             dict(
@@ -561,7 +561,7 @@ def test_assembly_facade_ida_errors(user_view):
         ),
     ]:
         with pytest.raises(ValueError, match=match):
-            rj.ida(_strip(), _pulses(), [1.0], beta=1e-3, progress=False, **kwargs)
+            rj.ida(_strip(), _pulses(), [1.0], model=rj.DEM(beta=1e-3), progress=False, **kwargs)
 
 
 RIGID_RTOL = 1e-3
@@ -597,7 +597,7 @@ def test_support_motion_errors(block, kwargs, match, user_view):
     elif kwargs.get("support_motion") == "floors":
         kwargs = {**kwargs, "support_motion": bldg.floor_motions(_pulses()[0])}
     with pytest.raises(ValueError, match=match):
-        rj.ida(block, _pulses(), [1.0], beta=1e-3, progress=False, **kwargs)
+        rj.ida(block, _pulses(), [1.0], model=rj.DEM(beta=1e-3), progress=False, **kwargs)
 
 
 def test_precomputed_supports_are_checked(user_view):

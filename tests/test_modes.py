@@ -177,16 +177,18 @@ def test_simulate_housner_takes_the_object_and_refuses_a_gap():
 
 def test_ida_takes_the_object_and_keeps_the_names_in_its_attrs():
     recs, scales = [_ricker()], [0.5, 1.0]
-    kw = dict(model="dem", beta=BETA, tail=0.2, progress=False)
+    kw = dict(model=rj.DEM(beta=BETA), tail=0.2, progress=False)
     a = rj.ida(BLOCK, recs, scales, mode=rj.Facade(gap=GAP), **kw)
-    b = rj.ida(BLOCK, recs, scales, mode="one_sided", gap=GAP, **kw)
+    # the name with the gap apart (rj.ida's former gap=): the same runs, with a warning
+    with pytest.warns(DeprecationWarning, match=r"mode=rj\.Facade\(gap="):
+        b = rj.ida(BLOCK, recs, scales, mode="one_sided", gap=GAP, **kw)
     for k in a.data_vars:
         assert np.array_equal(a[k].values, b[k].values, equal_nan=True)
     assert a.attrs["mode"] == "one_sided" and a.attrs["gap"] == GAP
-    h = rj.ida(BLOCK, recs, scales, model="housner", mode=rj.Facade(), tail=0.2, progress=False)
+    h = rj.ida(BLOCK, recs, scales, model=rj.Housner(), mode="one_sided", tail=0.2, progress=False)
     assert h.attrs["mode"] == "one_sided" and h.attrs["gap"] == 0.0
     with pytest.raises(ValueError, match="no facade gap"):
-        rj.ida(BLOCK, recs, scales, model="housner", mode=rj.Facade(gap=GAP), progress=False)
+        rj.ida(BLOCK, recs, scales, model=rj.Housner(), mode=rj.Facade(gap=GAP), progress=False)
 
 
 def test_pushover_takes_the_object():
@@ -207,18 +209,49 @@ def test_fit_beta_takes_the_object():
 
 
 def test_campaign_case_keeps_the_name_and_gap():
-    a = rj.campaign.Case("f", BLOCK, "s", mode=rj.Facade(gap=GAP), beta=BETA)
-    b = rj.campaign.Case("f", BLOCK, "s", mode="one_sided", gap=GAP, beta=BETA)
+    a = rj.campaign.Case("f", BLOCK, "s", model=rj.DEM(beta=BETA), mode=rj.Facade(gap=GAP))
+    b = rj.campaign.Case("f", BLOCK, "s", model=rj.DEM(beta=BETA), mode="one_sided", gap=GAP)
     assert a == b and a.spec() == b.spec()
     assert a.mode == "one_sided" and a.gap == GAP
     cases = rj.campaign.grid(
         {"b": BLOCK}, ["s"], modes=(rj.Parapet(), rj.Facade(gap=GAP)),
         beta={("b", "two_sided"): BETA, ("b", "one_sided"): BETA},
     )  # fmt: skip
-    got = {(c.mode, c.model): c.gap for c in cases}
+    got = {(c.mode, c.model.name): c.gap for c in cases}
     assert got == {
         ("two_sided", "dem"): 0.0,
         ("two_sided", "housner"): 0.0,
         ("one_sided", "dem"): GAP,
         ("one_sided", "housner"): 0.0,  # Housner's facade has no gap
     }
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [dict(mode="one_sided"), dict(mode=rj.Facade(gap=GAP)), dict(mode="two_sided", gap=GAP)],
+)
+def test_pushover_of_an_assembly_converts_the_mode_once_and_names_the_fix(kwargs):
+    """An assembly stands on the ground with its own restraint: a facade mode, or a gap given
+    apart, is refused before any run, with one fix (mode='two_sided', gap=0), not the facade
+    fix that would be refused next."""
+    wall = rj.Assembly.stack([BLOCK, BLOCK])
+    with pytest.raises(ValueError, match=r"own top support; leave mode='two_sided' and gap=0"):
+        rj.pushover(wall, **kwargs)
+
+
+def test_calibration_target_is_checked_once_at_the_edge():
+    """rj.calibration.check_target resolves None to the mode's default target and refuses a
+    target that does not fit e and the mode; fit_beta and problem call it once."""
+    check = rj.calibration.check_target
+    assert check(None, 0.9, rj.Parapet()) == "e"
+    assert check(None, None, rj.Facade()) == "bounces"
+    assert check("e", 0.5, rj.Facade()) == "e"
+    with pytest.raises(ValueError, match=r"\btarget\b must be one of \['bounces', 'e'\]"):
+        check("E", 0.9, rj.Parapet())
+    with pytest.raises(ValueError, match=r"target='bounces' is the facade.*one_sided"):
+        check("bounces", None, rj.Parapet())
+    with pytest.raises(ValueError, match=r"by default.*drop e, or pass target='e'"):
+        check(None, 0.5, rj.Facade())
+    with pytest.raises(ValueError, match=r"needs the target restitution e"):
+        check("e", None, rj.Parapet())
+    assert rj.calibration.TARGETS == ("e", "bounces")

@@ -251,3 +251,54 @@ def test_ida_and_fragility_in_g_for_the_ida_im():
     assert ax.get_xlabel() == "$S_a$(0.5 s) [g]"
     assert any(f"{frag.median_g:.3g} g" in t for t in _legend_texts(ax))
     assert plot.fragility(fragility(ds, "pga", n_boot=0)).get_xlabel() == "PGA [g]"
+
+
+def _capacity(theta_blocks=None):
+    d_over_b = jnp.linspace(0.0, 1.0, 101)
+    lam = jnp.where(d_over_b < 0.05, 2.0 * d_over_b, 0.1 * (1.0 - d_over_b))
+    return rj.Capacity(
+        load_multiplier=lam,
+        d_over_b=d_over_b,
+        theta=0.1 * d_over_b,
+        lambda_rigid=jnp.asarray(0.1),
+        b=jnp.asarray(0.25),
+        h=jnp.asarray(2.5),
+        overburden=jnp.asarray(0.0),
+        t=jnp.arange(101.0),
+        theta_blocks=theta_blocks,
+    )
+
+
+def test_pushover_curve_rigid_block_and_fit(tmp_path):
+    cap = _capacity()
+    law = rj.ThreeBranchLaw(lambda_0=0.1, Delta_1=0.01, Delta_2=0.05, Delta_u=1.0)
+    ax = plot.pushover(cap, law, title="capacity")
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert labels[0] == "DEM pushover" and labels[1].startswith("rigid block")
+    assert any(label.startswith("three-branch") for label in labels)
+    fit_line = next(line for line in ax.get_lines() if line.get_label().startswith("three"))
+    np.testing.assert_allclose(fit_line.get_ydata()[-1], 0.0, atol=1e-12)  # zero at Delta_u
+    assert "[-]" in ax.get_xlabel() and "a/g" in ax.get_ylabel()
+    ax.figure.savefig(tmp_path / "pushover.png")
+    ax = plot.pushover(_capacity(jnp.zeros((101, 2))), x="theta")
+    assert "[rad]" in ax.get_xlabel()
+    assert any(line.get_label().startswith("rigid collapse") for line in ax.get_lines())
+    with pytest.raises(ValueError, match="x must be one of"):
+        plot.pushover(cap, x="d")
+    with pytest.raises(ValueError, match="fit must be a rockjax.ThreeBranchFit"):
+        plot.pushover(cap, fit=0.1)
+
+
+def test_spectrum_lines_per_floor():
+    spec = rj.spectra.Spectrum(
+        periods=jnp.linspace(0.0, 2.0, 5),
+        damping=jnp.asarray(0.05),
+        sd=jnp.ones((3, 5)),
+        sa=G * jnp.ones((3, 5)),
+    )
+    ax = plot.spectrum(spec)
+    assert [line.get_label() for line in ax.get_lines()] == ["floor 1", "floor 2", "floor 3"]
+    np.testing.assert_allclose(ax.get_lines()[0].get_ydata(), 1.0)  # Sa in g
+    assert "5 % damping" in ax.get_ylabel() and ax.get_xlabel() == "period T [s]"
+    with pytest.raises(ValueError, match="one label per motion: 3"):
+        plot.spectrum(spec, labels=["a"])

@@ -61,3 +61,19 @@ def test_bad_input():
         pulses.identify_pulse(g)
     with pytest.raises(ValueError, match="shape"):
         pulses.fit_pulse(_pulse("MH", 1.0, 1.0, 3.0), "XX")
+
+
+@pytest.mark.parametrize(
+    ("shape", "constructor"),
+    [("MH", "ricker"), ("AR", "ricker_antisymmetric"), ("SC", "sine_cycle")],
+)
+def test_pulse_is_its_shapes_constructor(shape, constructor):
+    gm = pulses.pulse(shape, 2.0, 0.5, dt=0.01, duration=3.0)
+    ref = getattr(rj.GroundMotion, constructor)(2.0, 0.5, dt=0.01, duration=3.0)
+    np.testing.assert_array_equal(np.asarray(gm.ag), np.asarray(ref.ag))
+    assert gm.dt == 0.01 and gm.name == ref.name
+
+
+def test_pulse_refuses_an_unknown_shape():
+    with pytest.raises(ValueError, match="shape must be one of"):
+        pulses.pulse("ricker", 2.0, 0.5)

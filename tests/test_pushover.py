@@ -15,6 +15,8 @@ References, derived here independently of the library:
   (:func:`_winkler_lambda`), and its small-rotation branch the initial stiffness.
 """
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -414,3 +416,44 @@ def test_squat_pushover_plateaus_at_coulomb_friction(kind, joint):
     assert lam.max() < 1.0 + FRICTION_RTOL, lam.max()
     assert np.max(np.abs(lam[20:] - 1.0)) < FRICTION_RTOL, lam[20:]  # the plateau
     assert np.max(np.abs(np.asarray(cap.theta))) < 1e-4  # it slid without rocking
+
+
+def _synthetic_capacity(theta_blocks=None):
+    return Capacity(
+        load_multiplier=jnp.linspace(0.1, 0.0, 7),
+        d_over_b=jnp.linspace(0.0, 1.0, 7),
+        theta=jnp.linspace(0.0, 0.1, 7),
+        lambda_rigid=jnp.asarray(0.1),
+        b=jnp.asarray(0.2),
+        h=jnp.asarray(2.0),
+        overburden=jnp.asarray(500.0),
+        t=jnp.arange(7) * 0.5,
+        theta_blocks=theta_blocks,
+    )
+
+
+def test_capacity_to_dataframe_columns_units_and_attrs():
+    cap = _synthetic_capacity()
+    df = cap.to_dataframe()
+    assert df.index.name == "t [s]" and list(df.index) == [0.5 * k for k in range(7)]
+    assert list(df.columns) == ["d/b [-]", "d [m]", "lambda [-]", "theta [rad]"]
+    np.testing.assert_array_equal(df["d [m]"], 0.2 * np.linspace(0.0, 1.0, 7))
+    np.testing.assert_array_equal(df["lambda [-]"], np.asarray(cap.load_multiplier))
+    assert df.attrs == {
+        "lambda_rigid [-]": 0.1,
+        "b [m]": 0.2,
+        "h [m]": 2.0,
+        "overburden [N/m]": 500.0,
+        "n_blocks": 1,
+    }
+    blocks = jnp.stack([jnp.linspace(0, 0.05, 7), jnp.linspace(0, 0.1, 7)], axis=1)
+    df = _synthetic_capacity(blocks).to_dataframe()
+    np.testing.assert_array_equal(df["theta_1 [rad]"], np.asarray(blocks)[:, 1])
+    assert df.attrs["n_blocks"] == 2
+
+
+def test_capacity_to_dataframe_refuses_a_batch():
+    cap = _synthetic_capacity()
+    batch = jax.tree.map(lambda x: jnp.stack([x, x]), cap)  # as jax.vmap returns them
+    with pytest.raises(ValueError, match="needs one concrete curve"):
+        batch.to_dataframe()

@@ -262,3 +262,42 @@ def test_invalid_input():
         spectra.rotd_spectrum(gm, _noise_record(7, n=300), [0.5])
     with pytest.raises(ValueError, match="percentile must be in"):
         spectra.rotd_spectrum(gm, gm, [0.5]).rotd(150.0)
+
+
+def test_spectrum_to_dataframe():
+    """The table holds the spectrum, Sa also in g, and Sv = (2 pi / T) Sd (0 at T = 0)."""
+    periods = np.array([0.0, 0.2, 0.5, 1.0])
+    gm = rj.GroundMotion.ricker(pga_g=0.3, period=0.4)
+    spec = rj.response_spectrum(gm, periods)
+    df = spec.to_dataframe()
+    assert df.index.name == "T [s]"
+    assert list(df.columns) == ["Sa [m/s^2]", "Sa [g]", "Sd [m]", "Sv [m/s]"]
+    np.testing.assert_array_equal(df["Sa [m/s^2]"], np.asarray(spec.sa))
+    np.testing.assert_allclose(df["Sa [g]"], np.asarray(spec.sa) / 9.80665, rtol=1e-15)
+    sd = np.asarray(spec.sd)
+    np.testing.assert_allclose(df["Sv [m/s]"][1:], 2 * np.pi / periods[1:] * sd[1:], rtol=1e-14)
+    assert df["Sv [m/s]"].iloc[0] == 0.0 and df.attrs == {"damping [-]": 0.05}
+    two = spectra.Spectrum(
+        periods=spec.periods, damping=spec.damping, sd=jnp.stack([spec.sd, 2 * spec.sd]),
+        sa=jnp.stack([spec.sa, 2 * spec.sa]),
+    )  # fmt: skip
+    df2 = two.to_dataframe(["ground", "roof"])
+    np.testing.assert_array_equal(df2["Sd [m] roof"], 2 * sd)
+    assert len(df2.columns) == 8
+    with pytest.raises(ValueError, match="one label per motion: 2"):
+        two.to_dataframe(["ground"])
+    with pytest.raises(ValueError, match="this one is 1-D"):
+        spec.to_dataframe(["ground"])
+
+
+def test_rotd_spectrum_to_dataframe():
+    """RotD50 and RotD100 side by side; RotD100 >= RotD50 at every period (a maximum over
+    the angles against their median)."""
+    gx = rj.GroundMotion.ricker(pga_g=0.3, period=0.4)
+    gy = rj.GroundMotion.sine_cycle(pga_g=0.2, period=0.3, duration=gx.duration)
+    rot = rj.rotd_spectrum(gx, gy, [0.0, 0.2, 0.5], n_angles=18)
+    df = rot.to_dataframe()
+    np.testing.assert_array_equal(df["Sd [m] RotD50"], np.asarray(rot.rotd50.sd))
+    np.testing.assert_array_equal(df["Sa [g] RotD100"], np.asarray(rot.rotd100.sa) / G)
+    assert np.all(df["Sa [g] RotD100"] >= df["Sa [g] RotD50"])
+    assert df.attrs == {"damping [-]": 0.05, "n_angles": 18} and len(df.columns) == 8

@@ -14,6 +14,15 @@
    files as a page that shows the highlighted source; links to a folder keep their text only.
 3. Every name that rockjax/__init__.py re-exports must be rendered by a page of docs/api/; a
    name that none renders is a warning, so the strict build fails until it has a place.
+4. Formulas are typeset when the site is built, not in the reader's browser: the ``$...$`` and
+   ``$$...$$`` that ``pymdownx.arithmatex`` marks (in the pages and in the docstrings) become
+   MathML (``latex2mathml``), which browsers render natively. The site needs no script and no
+   font for its formulas, and reads the same offline and from disk (``file://``). The TeX
+   stays in each formula as its annotation (copy and paste, screen readers). A formula that
+   cannot be converted fails the build, naming the page and the formula. The notebook pages
+   (nbconvert's template, through mkdocs-jupyter) lose two scripts they do not use: MathJax 2's
+   set-up (its URL empty here; the notebooks' text has no formulas) and a loader of Mermaid
+   from a CDN (they have no diagrams).
 """
 
 from __future__ import annotations
@@ -21,6 +30,7 @@ from __future__ import annotations
 import ast
 import concurrent.futures
 import hashlib
+import html
 import logging
 import os
 import posixpath
@@ -41,6 +51,15 @@ NOTEBOOK_TIMEOUT_S = 900  # per cell; the slowest cell (a calibration) takes abo
 REPO_PREFIX = "repo/"
 IMAGE_SUFFIXES = {".png", ".svg", ".jpg", ".jpeg", ".gif", ".pdf"}
 LANGUAGES = {".py": "python", ".sh": "bash", ".toml": "toml", ".json": "json", ".csv": "text"}
+# what pymdownx.arithmatex (generic: true) makes of $...$ and $$...$$: \(...\) in a span and
+# \[...\] in a div, the TeX HTML-escaped
+ARITHMATEX = re.compile(r'<(span|div) class="arithmatex">(.*?)</\1>', re.S)
+# nbconvert's scripts in a notebook page: MathJax 2's set-up, and modules that load from a CDN
+NOTEBOOK_SCRIPTS = re.compile(
+    r"<!-- Load mathjax -->.*?<!-- End of mathjax configuration -->"
+    r'|<script type="module">(?:(?!</script>).)*?https://cdnjs\.cloudflare\.com.*?</script>',
+    re.S,
+)
 # a Markdown link or image whose target leaves docs/: ](../path) or ](../path#anchor)
 OUTSIDE_LINK = re.compile(r"\]\((\.\./[^)\s#]*)(#[^)\s]*)?\)")
 
@@ -226,3 +245,40 @@ def on_page_markdown(markdown: str, page, config, files) -> str:
         lambda m: m.group(0) if m.group(1) else m.group(2),
         markdown,
     )
+
+
+def _mathml(tex: str, display: str) -> str:
+    """``tex`` as MathML (``display``: ``"inline"`` or ``"block"``), its TeX kept as the
+    annotation."""
+    from latex2mathml.converter import convert
+
+    math = convert(tex, display=display)
+    unknown = re.findall(r"\\[A-Za-z]+", html.unescape(re.sub(r"<[^>]+>", " ", math)))
+    if unknown:  # latex2mathml writes a command it does not know as text
+        raise ValueError(f"latex2mathml does not know {', '.join(sorted(set(unknown)))}")
+    head, sep, rest = math.partition(">")
+    body = rest.removesuffix("</math>")
+    note = f'<annotation encoding="application/x-tex">{html.escape(tex)}</annotation>'
+    return f"{head}{sep}<semantics>{body}{note}</semantics></math>"
+
+
+@event_priority(100)  # before the search index reads the page
+def on_page_content(content: str, page, config, files) -> str:
+    """Typesets the page's formulas as MathML (item 4 of this module's docstring)."""
+
+    def typeset(match: re.Match) -> str:
+        tag, marked = match.groups()
+        tex = html.unescape(marked).strip()
+        if not (tex[:2] in ("\\(", "\\[") and tex[-2:] in ("\\)", "\\]")):
+            return match.group(0)  # not arithmatex's delimiters: left as it is
+        try:
+            return _mathml(tex[2:-2].strip(), "block" if tag == "div" else "inline")
+        except Exception as err:  # noqa: BLE001  (latex2mathml's errors share no base but this)
+            raise PluginError(
+                f"{page.file.src_uri}: cannot typeset the formula {tex!r} "
+                f"({type(err).__name__}: {err}); write it in the TeX that latex2mathml reads"
+            ) from err
+
+    if page.file.src_uri.endswith(".ipynb"):
+        content = NOTEBOOK_SCRIPTS.sub("", content)
+    return ARITHMATEX.sub(typeset, content)

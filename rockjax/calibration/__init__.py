@@ -61,9 +61,11 @@ from .fit_history import fit_history as fit_history
 from .problems import FACADE_BETA_MAX_HCRIT as FACADE_BETA_MAX_HCRIT
 from .problems import MODES as MODES
 from .problems import SAVE_DT as SAVE_DT
+from .problems import TARGETS as TARGETS
 from .problems import CalibrationProblem as CalibrationProblem
 from .problems import EProblem as EProblem
 from .problems import HistoryProblem as HistoryProblem
+from .problems import check_target as check_target
 from .problems import default_target as default_target
 from .problems import dem_run as dem_run
 from .problems import history_loss as history_loss
@@ -110,8 +112,10 @@ __all__ = [
     "MIN_ENERGY_RATIO",
     "MODES",
     "SAVE_DT",
+    "TARGETS",
     "bounce_peaks",
     "bounces_missed",
+    "check_target",
     "default_target",
     "dem_run",
     "e_effective",

@@ -28,6 +28,7 @@ from .problems import (
     build_problem,
     check_range,
     check_reachable,
+    check_target,
     concrete_block,
     dem_run,
     history_stat,
@@ -145,31 +146,65 @@ def fit_beta(
             keeps an informative bounce; the fit finds that end itself). The message gives the
             range and the fix. All are raised before the optimisation.
     """
+    # every option checked once, here; the fits below take them as they are
     check_choice("method", method, METHODS)
     check_choice("loss", loss, LOSSES)
     mode = as_mode(mode, gap)
-    if loss == "history":
-        return _fit_history_error(
-            block,
-            e,
-            target=target,
-            mode=mode,
-            theta0=theta0,
-            n_bounces=n_bounces,
-            beta0=beta0,
-            beta_max=beta_max,
-            method=method,
-            n_seed=n_seed,
-            rtol=rtol,
-            max_iter=max_iter,
-            joint=joint,
-            progress=progress,
-        )
     check_stopping(rtol, max_iter, 1e-4, 40)
     check_count("n_seed", n_seed, 1, 9)
     check_count("n_grid", n_grid, 2, 256)
     if beta0 is not None:
         check_scalar("beta0", beta0, "s", "Leave beta0=None to seed it from a scan.")
+    kw = dict(
+        theta0=theta0,
+        n_bounces=n_bounces,
+        beta0=beta0,
+        beta_max=beta_max,
+        n_seed=n_seed,
+        joint=joint,
+        rtol=rtol,
+        max_iter=max_iter,
+        progress=progress,
+    )
+    if loss == "history":
+        if method != "lbfgs":
+            raise ValueError(
+                f"loss='history' is minimised by L-BFGS from the bounce-loss optimum; got "
+                f"method={method!r}. Use method='lbfgs' (the default)."
+            )
+        if target not in (None, "e"):
+            raise ValueError(
+                f"loss='history' compares the DEM's time history with Housner's for a "
+                f"restitution e; got target={target!r}. Use target='e' (or leave it None)."
+            )
+        if e is None and mode.one_sided:
+            # Eq. 5: Housner's one-sided reference, |e_1SR|
+            e = mode.e_magnitude(float(mode.default_e(concrete_block(block))))
+        check_target("e", e, mode)
+        return _fit_history_error(block, e, mode=mode, **kw)
+    target = check_target(target, e, mode)
+    return _fit_peaks(block, e, target=target, mode=mode, method=method, n_grid=n_grid, **kw)
+
+
+def _fit_peaks(
+    block,
+    e,
+    *,
+    target,
+    mode,
+    theta0,
+    n_bounces,
+    beta0,
+    beta_max,
+    method,
+    n_seed,
+    n_grid,
+    rtol,
+    max_iter,
+    joint,
+    progress,
+) -> Calibration:
+    """:func:`fit_beta` with the bounce loss, its options checked (``target`` resolved)."""
     t_start = time.perf_counter()
     notice_once(
         ("fit_beta", mode.name, method),
@@ -301,28 +336,17 @@ def fit_beta(
     )
 
 
-def _fit_history_error(block, e, *, target, mode, method, rtol, max_iter, progress, **kw):
-    """``fit_beta(loss="history")``: L-BFGS on the history error from the bounce-loss optimum."""
-    if method != "lbfgs":
-        raise ValueError(
-            f"loss='history' is minimised by L-BFGS from the bounce-loss optimum; got "
-            f"method={method!r}. Use method='lbfgs' (the default)."
-        )
-    if target not in (None, "e"):
-        raise ValueError(
-            f"loss='history' compares the DEM's time history with Housner's for a restitution "
-            f"e; got target={target!r}. Use target='e' (or leave it None)."
-        )
-    if e is None and mode.one_sided:
-        # Eq. 5: Housner's one-sided reference, |e_1SR|
-        e = mode.e_magnitude(float(mode.default_e(concrete_block(block))))
+def _fit_history_error(block, e, *, mode, rtol, max_iter, progress, **kw):
+    """``fit_beta(loss="history")``: L-BFGS on the history error from the bounce-loss optimum
+    (its options checked by :func:`fit_beta`, the target ``"e"`` with this ``e``)."""
     t_start = time.perf_counter()
-    start = fit_beta(
+    start = _fit_peaks(
         block,
         e,
         target="e",
         mode=mode,
         method="lbfgs",
+        n_grid=256,  # unused by L-BFGS
         rtol=rtol,
         max_iter=max_iter,
         progress=progress,

@@ -251,7 +251,7 @@ def concrete_block(block: Block) -> Block:
     """``block`` with Python floats (ValueError for traced values: a fit is not traced)."""
     try:
         return jax.tree.map(lambda x: float(np.asarray(x)), block)
-    except Exception:
+    except TypeError:  # a tracer (TracerArrayConversionError, ConcretizationTypeError)
         raise ValueError(
             "fit_beta/fit_e need a concrete Block (Python floats), not traced values."
         ) from None
@@ -345,41 +345,27 @@ def _stacked_peaks(ts, thetas, eta, n_bounces, mode, hyst):
     return jax.tree.map(lambda *x: jnp.stack(x), *pks)
 
 
-def build_problem(
-    block,
-    e=None,
-    *,
-    target=None,
-    mode="two_sided",
-    theta0=None,
-    n_bounces=None,
-    beta_max=None,
-    joint=None,
-    gap=None,
-) -> tuple[CalibrationProblem, list[Response]]:
-    """:func:`problem` and the Housner reference responses it was built from (one per release;
-    empty for ``target="bounces"``)."""
-    mode = as_mode(mode, gap)
-    joint = Joint() if joint is None else joint
-    if not isinstance(joint, Joint):
-        raise TypeError(
-            f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
-        )
-    one_sided = mode.one_sided
+TARGETS = ("e", "bounces")
+"""The calibration targets: Housner's rocking with a restitution ``e``, or the facade bounce
+targets (:data:`rockjax.calibration.BOUNCE_FRACTIONS`)."""
+
+
+def check_target(target, e, mode: Mode) -> str:
+    """The target of a calibration, resolved and checked once, at the public entry point
+    (:func:`rockjax.fit_beta`, :func:`problem`): ``target`` (None: the mode's
+    ``default_target``) one of :data:`TARGETS`, with the ``e`` and the ``mode`` it takes
+    (``"e"``: a given ``e``; ``"bounces"``: a facade, no ``e``).
+
+    Raises:
+        ValueError: an unknown target or one that does not fit ``e`` and ``mode``, naming the
+            fix.
+    """
     defaulted = target is None
     if defaulted:
         target = mode.default_target
-    check_choice("target", target, ("e", "bounces"))
-    block = concrete_block(block)
-    th = release(block, theta0)
-    if n_bounces is None:
-        n_bounces = 3 if (one_sided or target == "bounces") else 8
-    else:
-        n_bounces = check_n_bounces(
-            n_bounces, " Leave it None for the default (8 two-sided, 3 one-sided)."
-        )
+    check_choice("target", target, TARGETS)
     if target == "bounces":
-        if not one_sided:
+        if not mode.one_sided:
             raise ValueError(
                 "target='bounces' is the facade calibration (measured e_exp of bounces 1-3 as "
                 "fractions of e_ISR); use mode='one_sided', or target='e' for a parapet."
@@ -392,12 +378,44 @@ def build_problem(
                     "Housner's one-sided rocking with this e instead."
                 )
             raise ValueError("target='bounces' takes no e (its targets are fractions of e_ISR).")
-        n_bounces = max(int(n_bounces), 3)
     elif e is None:
         raise ValueError(
             "fit_beta needs the target restitution e (e.g. e=rj.e_housner(block), Eq. 2), or "
             "target='bounces' for a facade."
         )
+    return target
+
+
+def build_problem(
+    block,
+    e=None,
+    *,
+    target: str,
+    mode: Mode,
+    theta0=None,
+    n_bounces=None,
+    beta_max=None,
+    joint=None,
+) -> tuple[CalibrationProblem, list[Response]]:
+    """:func:`problem` and the Housner reference responses it was built from (one per release;
+    empty for ``target="bounces"``). ``mode`` is the object and ``target`` the one
+    :func:`check_target` returned (checked once by the caller, with ``e``)."""
+    joint = Joint() if joint is None else joint
+    if not isinstance(joint, Joint):
+        raise TypeError(
+            f"joint must be a rockjax.Joint, e.g. rj.Joint(n_sub=2); got {type(joint).__name__}."
+        )
+    one_sided = mode.one_sided
+    block = concrete_block(block)
+    th = release(block, theta0)
+    if n_bounces is None:
+        n_bounces = 3 if (one_sided or target == "bounces") else 8
+    else:
+        n_bounces = check_n_bounces(
+            n_bounces, " Leave it None for the default (8 two-sided, 3 one-sided)."
+        )
+    if target == "bounces":
+        n_bounces = max(int(n_bounces), 3)
     if beta_max is None:
         beta_max = default_beta_max(block, mode)
     check_positive(
@@ -492,16 +510,16 @@ def problem(
         ValueError: as :func:`rockjax.fit_beta` before its scan (bad input, a target with no
             informative bounce).
     """
+    mode = as_mode(mode, gap)
     return build_problem(
         block,
         e,
-        target=target,
+        target=check_target(target, e, mode),
         mode=mode,
         theta0=theta0,
         n_bounces=n_bounces,
         beta_max=beta_max,
         joint=joint,
-        gap=gap,
     )[0]
 
 

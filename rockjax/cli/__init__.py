@@ -24,6 +24,23 @@ and writes ``calibration.png`` (DEM at the fitted ``beta`` vs Housner, and the l
 ``calibration.json``; a fit that does not meet its target within the stated tolerance is
 reported with the reason on stderr and exit status 1 (the files are still written).
 
+``rockjax simulate --b 0.2 --h 1.5 --pulse MH --pga-g 0.3 --pulse-period 0.4`` runs one block
+under a record (``--record``: a PEER ``.AT2`` file, or a CSV file whose units its header states
+or ``--units`` gives), an analytic pulse (``--pulse``) or a free release (``--theta0``), with the
+DEM, Housner or Housner with a three-branch law (``--model``), on the ground or in a host shear
+building (``--storeys``, ``--building-period``, ``--storey``); it prints the peak
+``|theta|/eta``, whether the block overturned and the time step, and writes ``simulate.csv``
+(:meth:`rockjax.Response.to_dataframe`), ``simulate.png`` and ``simulate.json``.
+
+``rockjax spectrum --record FILE`` writes the elastic response spectrum of a record or a pulse
+(:func:`rockjax.response_spectrum`), and with a host building its floor spectra
+(:func:`rockjax.floor_spectra`), as ``spectrum.csv``, ``spectrum.png`` and ``spectrum.json``.
+
+``rockjax pushover --b 0.17 --h 1.5`` runs the DEM pushover of a block or a stack
+(:func:`rockjax.pushover`), fits the three-branch law (:func:`rockjax.fit_three_branch`) and
+writes ``pushover.csv``, ``pushover.png`` and ``pushover.json`` (the law, which
+``rockjax simulate --model three-branch --law pushover.json`` reads).
+
 Errors in the input, and an output file that cannot be written (every file a command writes is
 checked before its first run), are reported as one ``error: ...`` line on stderr with exit
 status 2. An IDA whose runs all fail writes its files and exits with status 1 and one
@@ -31,8 +48,10 @@ status 2. An IDA whose runs all fail writes its files and exits with status 1 an
 
 **Layout.** One private module per command, re-exported here: ``_main`` (:func:`main` and the
 parser), ``_demo`` (the main job, one function per step) with ``_demo_inputs`` (its examples and
-files) and ``_demo_files`` (its figures and CSV files), ``_ida``, ``_calibrate``, and ``_common``
-(the output checks and summaries the commands share). ``python -m rockjax.cli`` runs
+files) and ``_demo_files`` (its figures and CSV files), ``_ida``, ``_calibrate``, ``_simulate``,
+``_spectrum``, ``_pushover``, ``_options`` (the options of the last three: block, record or
+pulse, mode, joint, building, outputs) and ``_common`` (the output checks and summaries the
+commands share). ``python -m rockjax.cli`` runs
 :func:`main` too.
 """
 

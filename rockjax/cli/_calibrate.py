@@ -22,7 +22,7 @@ CALIBRATE_FILES = ("calibration.png", "calibration.json")  # `rockjax calibrate`
 
 
 def add_calibrate_parser(sub) -> None:
-    from ..calibration import BOUNCE_FRACTIONS, E_TOL, METHODS, MODES
+    from ..calibration import BOUNCE_FRACTIONS, E_TOL, LOSSES, METHODS, MODES, TARGETS
 
     fractions = "/".join(f"{100 * f:g}" for f in BOUNCE_FRACTIONS)
     p = sub.add_parser(
@@ -62,7 +62,7 @@ def add_calibrate_parser(sub) -> None:
     )
     p.add_argument(
         "--target",
-        choices=("e", "bounces"),
+        choices=TARGETS,
         default=None,
         help="e: match Housner with --e; bounces: facade bounce ratios (default: e two-sided, "
         "bounces one-sided)",
@@ -103,7 +103,7 @@ def add_calibrate_parser(sub) -> None:
     )
     p.add_argument(
         "--loss",
-        choices=("peaks", "history"),
+        choices=LOSSES,
         default="peaks",
         help="peaks: the bounce log-energy loss; history: the paper's weighted-mean time-history "
         "error against Housner with --e, from the peaks optimum (--target e, --method lbfgs; "

@@ -24,6 +24,7 @@ from ..contact import Joint
 from ..dem import simulate_dem, stable_dt
 from ..housner import simulate_housner
 from ..ida import ida
+from ..models import DEM, Housner
 from ..motion import GroundMotion
 from ..relations import beta_dejong, beta_isr, e_housner, e_isr, free_rocking_period
 from ..response import STATUS_MESSAGES, Response
@@ -432,8 +433,8 @@ def _ida_pulses(setup: _Setup, fit: Calibration, results: dict, wall: dict):
     )
     t0 = time.perf_counter()
     parapet = setup.parapet
-    ds_h = ida(parapet, records, scales, model="housner", e=setup.e_h, tail=2.0, progress=False)
-    ds_d = ida(parapet, records, scales, model="dem", beta=fit.beta, tail=2.0, progress=False)
+    ds_h = ida(parapet, records, scales, model=Housner(e=setup.e_h), tail=2.0, progress=False)
+    ds_d = ida(parapet, records, scales, model=DEM(beta=fit.beta), tail=2.0, progress=False)
     wall["ida"] = time.perf_counter() - t0
     results["ida"] = {
         "records": [r.name for r in records],

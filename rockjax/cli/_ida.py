@@ -15,6 +15,7 @@ import numpy as np
 from .. import __version__, jsonio, plot
 from ..block import Block
 from ..constants import G
+from ..models import DEM, as_model
 from ..modes import MODE_NAMES, as_mode
 from ..relations import beta_dejong
 from ..response import STATUS_MESSAGES
@@ -235,8 +236,9 @@ def _ida(args: argparse.Namespace) -> int:
     check_outputs("--out", list(files.values()))
     scales = _parse_scales(args.scales)
     block = Block(b=args.b, h=args.h)  # raises ValueError on bad geometry
-    mode = as_mode(args.mode)  # its facts for the messages; rj.ida converts --mode --gap
-    # checked here too (rj.ida checks them all) so the error comes before the records load
+    # --mode --gap: the mode object, converted once (a gap for a parapet refused here)
+    mode = as_mode(args.mode, args.gap)
+    # checked here in the flags' words (rj.as_model checks them too) before the records load
     if args.model == "housner" and args.beta is not None:
         raise ValueError(
             f"--beta (DEM damping) is not a Housner parameter; --model housner takes --e. "
@@ -252,7 +254,12 @@ def _ida(args: argparse.Namespace) -> int:
             f"--e (restitution, dimensionless) must lie in (0, 1]; got --e {args.e:g}. E.g. "
             "--e 0.9, or leave it out for the paper's default."
         )
-    if args.model == "housner" and args.e is None:
+    # the model object, converted once: the DEM's beta defaults to DeJong's
+    beta = args.beta
+    if args.model == DEM.name and beta is None:
+        beta = float(beta_dejong(block))
+    model = as_model(args.model, beta=beta, e=args.e)
+    if model.rigid and model.e is None:
         e_default = float(mode.default_e(block))
         if not 0.0 < mode.e_magnitude(e_default) <= 1.0:
             which = "e_1SR (Eq. 5)" if mode.one_sided else "e_H (Eq. 2)"
@@ -262,48 +269,40 @@ def _ida(args: argparse.Namespace) -> int:
                 f"{args.h / args.b:.3g}): the closed form holds for slender blocks. Give a "
                 "measured value with --e, e.g. --e 0.9."
             )
-    beta = args.beta
-    if args.model == "dem" and beta is None:
-        beta = float(beta_dejong(block))
     try:
         motions = load_records(args.records, normalized=args.normalized)
     except ValueError as err:
         raise ValueError(f"--records {err}") from None
     n_runs = len(motions) * scales.size
-    if args.model == "dem":
-        param = f"beta = {beta:.4g} s" + (
+    uncalibrated = args.beta is None
+    if not model.rigid:
+        param = f"beta = {model.beta:.4g} s" + (
             " = beta_DeJong, an uncalibrated default: calibrate it with rockjax calibrate"
-            if args.beta is None
+            if uncalibrated
             else ""
         )
-    elif args.e is None:
+        short = f"beta = {model.beta:.3g} s" + (
+            " (beta_DeJong, uncalibrated)" if uncalibrated else ""
+        )
+    elif model.e is None:
         e_default = mode.default_e(block)
         eq = "|Eq. 5|" if mode.one_sided else "Eq. 2"
-        param = f"e = {abs(float(e_default)):.4g} ({eq}, the default)"
+        param = short = f"e = {abs(float(e_default)):.4g} ({eq}, the default)"
     else:
-        param = f"e = {args.e:g}"
+        param = short = f"e = {model.e:g}"
     print(
-        f"rockjax {__version__} ida: block {args.b:g} x {args.h:g} m, {args.model} "
+        f"rockjax {__version__} ida: block {args.b:g} x {args.h:g} m, {model.name} "
         f"{mode.name} ({param}); {len(motions)} records x {scales.size} scales "
         f"({scales[0]:g} to {scales[-1]:g}) = {n_runs} runs -> {out}",
         flush=True,
     )
-    if args.model == "dem":
-        short = f"beta = {beta:.3g} s" + (
-            " (beta_DeJong, uncalibrated)" if args.beta is None else ""
-        )
-    else:
-        short = param
-    title = f"{args.model} {mode.name.replace('_', '-')}, block {args.b:g} x {args.h:g} m, {short}"
+    title = f"{model.name} {mode.name.replace('_', '-')}, block {args.b:g} x {args.h:g} m, {short}"
     ds = ida(
         block,
         motions,
         scales,
-        model=args.model,
-        mode=args.mode,  # with --gap: converted (and the gap checked) by rj.ida
-        beta=beta,
-        e=args.e,
-        gap=args.gap,
+        model=model,
+        mode=mode,
         tail=args.tail,
         chunk_size=args.chunk_size,
         progress=args.progress,

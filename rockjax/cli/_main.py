@@ -9,10 +9,13 @@ import sys
 from collections.abc import Sequence
 
 from .. import __version__
-from ..compilation import enable_cache
+from ..compilation import configure_cpu, enable_cache
 from ._calibrate import add_calibrate_parser
 from ._demo import add_demo_parser
 from ._ida import add_ida_parser
+from ._pushover import add_pushover_parser
+from ._simulate import add_simulate_parser
+from ._spectrum import add_spectrum_parser
 
 
 def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
@@ -31,6 +34,7 @@ def main(argv: Sequence[str | os.PathLike] | None = None) -> int:
     args = parser.parse_args(None if argv is None else [os.fspath(a) for a in argv])
     if argv is None:  # run as the command (not called from Python): reuse compiled programs
         enable_cache()
+        configure_cpu()  # XLA:CPU's option for the time loops, with the user's XLA_FLAGS too
     try:
         return args.run(args)
     except ValueError as err:
@@ -61,4 +65,7 @@ def _parser() -> argparse.ArgumentParser:
     add_demo_parser(sub)
     add_ida_parser(sub)
     add_calibrate_parser(sub)
+    add_simulate_parser(sub)
+    add_spectrum_parser(sub)
+    add_pushover_parser(sub)
     return parser

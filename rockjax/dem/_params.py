@@ -158,7 +158,13 @@ def dem_params(
             (the paper's 50 for parapets, 30 for facades).
     """
     mode = mode_of(body, mode, gap)
-    assembly = as_assembly(body)
+    phi_deg = check_params(beta, mode, joint, phi_deg)
+    return build_params(*params_args(body, beta, mode, phi_deg), **params_options(mode, joint))
+
+
+def check_params(beta, mode: Mode, joint: Joint, phi_deg):
+    """:func:`dem_params`'s checks of its inputs; returns ``phi_deg`` (the mode's default
+    for None)."""
     check_joint(joint)
     if phi_deg is None:
         phi_deg = mode.phi_deg
@@ -169,9 +175,18 @@ def dem_params(
     phi = concrete(phi_deg)
     if phi is not None and not (0.0 < phi < 90.0):
         raise ValueError(f"phi_deg (friction angle, degrees) must be in (0, 90); got {phi_deg}.")
-    # one program for Python and NumPy numbers alike (strong_scalars)
-    args = strong_scalars((assembly, beta, mode.gap, phi_deg))
-    return build_params(*args, one_sided=mode.one_sided, joint=joint)
+    return phi_deg
+
+
+def params_args(body: Block | Assembly, beta, mode: Mode, phi_deg) -> tuple:
+    """The array arguments of :func:`build_params` for checked inputs: one program for
+    Python and NumPy numbers alike (strong_scalars)."""
+    return strong_scalars((as_assembly(body), beta, mode.gap, phi_deg))
+
+
+def params_options(mode: Mode, joint: Joint) -> dict:
+    """The static arguments of :func:`build_params`."""
+    return dict(one_sided=mode.one_sided, joint=joint)
 
 
 def mode_of(body: Block | Assembly, mode, gap=None) -> Mode:

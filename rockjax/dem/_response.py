@@ -10,7 +10,8 @@ import jax
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
-from ..response import Response
+from .._checks import concrete
+from ..response import STATUS_MESSAGES, Response, one_run_times
 
 
 class AssemblyResponse(eqx.Module):
@@ -78,6 +79,73 @@ class AssemblyResponse(eqx.Module):
     shear_forces: Float[Array, "time interface"] | None = None
     restraint_force: Float[Array, " time"] | None = None
     wall_forces: Float[Array, "time block"] | None = None
+
+    def to_dataframe(self):
+        """The history as a ``pandas.DataFrame``, one row per sample (one run only).
+
+        The index is ``"t [s]"``; per block ``k`` (0 the bottom one; in a row, the -x end)
+        the columns ``"theta_<k> [rad]"``, ``"theta_dot_<k> [rad/s]"``, ``"x_<k> [m]"``,
+        ``"y_<k> [m]"``, ``"d_<k> [m]"`` and ``"theta_<k>/eta_<k> [-]"``; then, where saved,
+        ``"energy [J]"``, ``"work_wall [J]"``, per interface ``i`` ``"normal_force_<i> [N]"``
+        and ``"shear_force_<i> [N]"``, ``"restraint_force [N]"`` and per block
+        ``"wall_force_<k> [N]"``. ``df.attrs`` holds the run's scalars: ``overturned``,
+        ``status``, ``status_message``, ``dt [s]``, ``n_blocks`` and, per block,
+        ``theta_max_<k> [rad]``, ``eta_<k> [rad]`` and ``d_max_<k> [m]``. Write it with
+        ``df.to_csv(path)``.
+
+        Returns:
+            The ``pandas.DataFrame``.
+
+        Raises:
+            ValueError: for a batch of runs (from ``vmap``; index one run first,
+                e.g. ``jax.tree.map(lambda x: x[i], resp)``) or inside ``jit``.
+        """
+        import pandas as pd
+
+        t = one_run_times(self)
+        theta, eta = concrete(self.theta), concrete(self.eta)
+        n = theta.shape[-1]
+        per_block = {
+            "theta_{k} [rad]": theta,
+            "theta_dot_{k} [rad/s]": self.theta_dot,
+            "x_{k} [m]": self.x,
+            "y_{k} [m]": self.y,
+            "d_{k} [m]": self.d,
+            "theta_{k}/eta_{k} [-]": theta / eta,
+        }
+        columns = {
+            name.format(k=k): concrete(v)[:, k] for name, v in per_block.items() for k in range(n)
+        }
+        for name, value in (("energy [J]", self.energy), ("work_wall [J]", self.work_wall)):
+            if value is not None:
+                columns[name] = concrete(value)
+        for name, value in (
+            ("normal_force_{k} [N]", self.normal_forces),
+            ("shear_force_{k} [N]", self.shear_forces),
+            ("wall_force_{k} [N]", self.wall_forces),
+        ):
+            if value is not None:
+                v = concrete(value)
+                columns |= {name.format(k=k): v[:, k] for k in range(v.shape[-1])}
+        if self.restraint_force is not None:
+            columns["restraint_force [N]"] = concrete(self.restraint_force)
+        df = pd.DataFrame(columns, index=pd.Index(t, name="t [s]"))
+        status = int(np.asarray(self.status))
+        df.attrs.update(
+            overturned=bool(np.asarray(self.overturned)),
+            status=status,
+            status_message=STATUS_MESSAGES.get(status, "unknown status"),
+            n_blocks=n,
+            **{"dt [s]": float(concrete(self.dt))},
+        )
+        for name, value in (
+            ("theta_max_{k} [rad]", self.theta_max),
+            ("eta_{k} [rad]", self.eta),
+            ("d_max_{k} [m]", self.d_max),
+        ):
+            v = concrete(value)
+            df.attrs |= {name.format(k=k): float(v[k]) for k in range(n)}
+        return df
 
 
 # ----------------------------------------------------------------------------- parameters

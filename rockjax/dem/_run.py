@@ -6,7 +6,7 @@ samples skipped).
 Scan layout: the outer scan's body is wrapped in ``jax.checkpoint``, so reverse mode stores
 one small carry per sample and recomputes the steps; the inner scan over the ``n_in`` steps
 carries the state's fields themselves (one copy of the step in the program). With rockjax's
-``xla_cpu_small_while_loop_byte_threshold`` setting (see ``rockjax/__init__.py``) XLA:CPU
+``xla_cpu_small_while_loop_byte_threshold`` setting (:func:`rockjax.compilation.configure_cpu`) XLA:CPU
 compiles the loop as a single kernel without per-iteration dispatch.
 
 Compile once per bucket of record lengths (:mod:`rockjax.compilation`): :func:`run` takes the

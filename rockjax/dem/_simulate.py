@@ -22,13 +22,14 @@ from ..supports import resolve_supports
 from ._params import (
     as_assembly,
     check_accuracy,
+    check_params,
     dem_params,
     mode_of,
     steps_compiled,
 )
 from ._response import AssemblyResponse, cut, cut_block
 from ._run import failure_message, padded_length, run, run_block
-from ._state import check_theta0, initial_state
+from ._state import check_theta0, set_up
 
 SAVE_OPTIONS = ("energy", "forces")
 
@@ -153,7 +154,7 @@ def simulate_dem(
         )
     save = check_save(save)
     mode = mode_of(block, mode, gap)  # (the gap checked with the message for the kind of body)
-    p = dem_params(assembly, beta, mode=mode, joint=joint, phi_deg=phi_deg)
+    phi_deg = check_params(beta, mode, joint, phi_deg)
     check_theta0(theta0, assembly, mode)
     if wall_motion is not None and not mode.one_sided:
         raise ValueError(
@@ -167,9 +168,10 @@ def simulate_dem(
     )  # fmt: skip
     ag, top, wall = supports.ag, supports.top, supports.wall
     accuracy = check_accuracy(accuracy, mode, joint)
-    n_in = steps_per_sample(p, block, beta, beta_max, mode, joint, dt, dt_out, accuracy)
+    # the parameters, the steps and the initial state: one program
+    p, steps, st0 = set_up(assembly, beta, mode, joint, phi_deg, accuracy, theta0)
+    n_in = steps_per_sample(p, block, steps, beta, beta_max, mode, joint, dt, dt_out, accuracy)
     step = (np if isinstance(n_in, int) else jnp).asarray(dt_out / n_in)
-    st0 = initial_state(assembly, p, theta0)
     dt_out = np.asarray(dt_out)
     program = run_block if single else run
     if is_traced(p, st0, ag, ag_v, top, wall, step):
@@ -250,17 +252,18 @@ def check_save(save) -> tuple:
     return tuple(save)
 
 
-def steps_per_sample(p, body, beta, beta_max, mode, joint, dt, dt_out, accuracy):
+def steps_per_sample(p, body, steps, beta, beta_max, mode, joint, dt, dt_out, accuracy):
     """The number of steps per record sample: the default step (or ``dt``, checked against
     the stability limit) rounded down to divide the sample step ``dt_out`` [s]. An ``int``;
-    an int32 array when ``dt`` is traced."""
+    an int32 array when ``dt`` is traced. ``steps``: ``p``'s ``(critical_dt, default_step)``
+    [s], as :func:`rockjax.dem.default_step` gives them."""
     if dt is not None and concrete(dt) is None:
         # a traced step (e.g. one program for every beta of a batch): the number of steps is
         # data, the inner loop's trip count (forward mode only: reverse mode cannot run a loop
         # whose length is traced); the stability limit is checked in the run (its status)
         check_scalar("dt", dt, "s", "Or leave dt=None (chosen for accuracy).")
         return jnp.maximum(1, jnp.ceil(dt_out / dt - 1e-9)).astype(jnp.int32)
-    limit, dt_default = concrete_steps(p, body, beta_max, joint, mode, dt, accuracy)
+    limit, dt_default = concrete_steps(p, body, steps, beta_max, joint, mode, dt, accuracy)
     if dt is None:
         return max(1, math.ceil(dt_out / dt_default - 1e-9))
     check_positive("dt", dt, "s", "Or leave dt=None (chosen for accuracy).", scalar=True)
@@ -281,7 +284,7 @@ def fmt(x) -> str:
     return "(traced)" if v is None else f"{float(v):.4g}"
 
 
-def concrete_steps(p, body, beta_max, joint, mode, dt, accuracy):
+def concrete_steps(p, body, steps, beta_max, joint, mode, dt, accuracy):
     """``(stability limit, default step)`` [s] as floats, or ``(None, None)`` when they cannot
     be known outside the trace."""
     if beta_max is not None:
@@ -295,7 +298,7 @@ def concrete_steps(p, body, beta_max, joint, mode, dt, accuracy):
                 "dt=rj.stable_dt(block, beta_max) computed outside the transform."
             ) from None
     try:
-        return tuple(map(float, steps_compiled(p, accuracy)))
+        return tuple(map(float, steps))
     except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
         if dt is not None:
             return None, None  # checked inside the trace (status / error_if)
@@ -340,8 +343,11 @@ def stable_dt(
             give the stability-based step.
     """
     mode = mode_of(block, mode, gap)
-    p = dem_params(block, beta, mode=mode, joint=joint)
-    return float(steps_compiled(p, check_accuracy(accuracy, mode, joint))[1])
+    phi_deg = check_params(beta, mode, joint, None)
+    # simulate_dem's set-up program (its initial state unused): no program of its own
+    accuracy = check_accuracy(accuracy, mode, joint)
+    _, steps, _ = set_up(block, beta, mode, joint, phi_deg, accuracy, 0.0)
+    return float(steps[1])
 
 
 def stable_dt_assembly(

@@ -13,9 +13,19 @@ import numpy as np
 from .._checks import check_scalar, concrete
 from ..assembly import Assembly
 from ..block import Block
+from ..compilation import persistent_jit, strong_scalars
 from ..constants import G
+from ..contact import Joint
 from ..modes import Mode, Parapet
-from ._params import DemParams, DemState
+from ._params import (
+    DemParams,
+    DemState,
+    as_assembly,
+    build_params,
+    params_args,
+    params_options,
+    steps,
+)
 
 
 @jax.jit(static_argnames=("n_sub",))
@@ -77,8 +87,30 @@ def initial_state(body: Block | Assembly, p: DemParams, theta0=0.0) -> DemState:
     settles uniformly under the weight above it. The return walls (one-sided ``p``) just
     touch the back faces at ``gap = 0``."""
     assembly = Assembly.stack([body]) if isinstance(body, Block) else body
-    hinge = bool(p.restrained and concrete(theta0) != 0.0)
-    return settled(assembly, p, theta0, hinge)
+    return settled(assembly, p, theta0, is_hinged(assembly, theta0))
+
+
+def is_hinged(assembly: Assembly, theta0) -> bool:
+    """Whether the run starts in the hinge mechanism (a restrained wall released tilted)."""
+    return bool(assembly.top == "restrained" and concrete(theta0) != 0.0)
+
+
+def set_up(body: Block | Assembly, beta, mode: Mode, joint: Joint, phi_deg, accuracy, theta0):
+    """``(p, (critical_dt, default_step), st0)``: :func:`rockjax.dem.dem_params`, the steps
+    (:func:`rockjax.dem.default_step`) and :func:`initial_state` of inputs already checked
+    (``phi_deg`` given), as one compiled program: a run's set-up compiles once with its
+    solver, not as three programs."""
+    assembly = as_assembly(body)
+    args = params_args(assembly, beta, mode, phi_deg) + strong_scalars((accuracy, theta0))
+    options = params_options(mode, joint)
+    return set_up_program(*args, hinge=is_hinged(assembly, theta0), **options)
+
+
+@persistent_jit
+def set_up_program(assembly, beta, gap, phi_deg, accuracy, theta0, *, one_sided, joint, hinge):
+    """:func:`set_up`'s program."""
+    p = build_params(assembly, beta, gap, phi_deg, one_sided=one_sided, joint=joint)
+    return p, steps(p, accuracy), settled(assembly, p, theta0, hinge)
 
 
 # Compiled: one call instead of ~30 eager operations (~0.5 ms a call).

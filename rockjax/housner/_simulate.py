@@ -37,7 +37,7 @@ from .._checks import (
 )
 from .._lazy import lazy_module
 from ..block import Block
-from ..compilation import bucket_length, is_traced, notice_once, pad_to
+from ..compilation import bucket_length, is_traced, notice, pad_to
 from ..modes import MODE_NAMES, Mode, as_mode
 from ..motion import GroundMotion
 from ..response import STATUS_BAD_INPUT, STATUS_OK, Response
@@ -214,22 +214,6 @@ def simulate_housner(
     # passed as data. Under the caller's jit/vmap/grad their transform fixes the shapes.
     traced = is_traced(block, ag, ag_v, e, theta0, theta_dot0, law, wall)
     n_pad = n_out if traced else bucket_length(n_out)
-    if not traced:
-        notice_once(
-            (
-                "housner",
-                n_pad,
-                n_sub,
-                one_sided,
-                max_impacts_per_step,
-                loop_kind,
-                ag_v is None,
-                law is None,
-                wall is None,
-            ),
-            f"rockjax: compiling the Housner solver for records of <= {n_pad} samples "
-            "(once per session)...",
-        )
     block = jax.tree.map(lambda x: jnp.asarray(x, dtype=float), block)
     e = jnp.asarray(e, dtype=float)
     theta_dot0 = _first_step_velocity(theta_dot0, theta0, e, dt_out / n_sub)
@@ -255,12 +239,27 @@ def simulate_housner(
     # (eqx.error_if) cannot go into the persistent compilation cache.
     if solver is None:
         wall = None if wall is None else pad_wall(wall, n_pad, dt_out)
+        if not traced and solve.will_compile(*inputs, wall, n_sub=n_sub, **options):
+            notice(compile_notice(mode, n_pad, law, wall, ag_v))
         resp, fault = solve(*inputs, wall, n_sub=n_sub, **options)
     else:  # the diffrax path (_diffrax.py)
         resp, fault = solve_events(*inputs, solver=solver, controller=controller, **options)
     if throw and not traced:
         _raise_on_failure(int(resp.status), int(fault), one_sided)
     return resp if n_pad == n_out else _cut(resp, n_out)
+
+
+def compile_notice(mode, n_pad, law, wall, ag_v) -> str:
+    """The one line that says which Housner program a call compiles, and what reuses it."""
+    what = [mode.name.replace("_", "-")]
+    what += [] if law is None else ["three-branch law"]
+    what += [] if wall is None else ["moving return wall"]
+    what += [] if ag_v is None else ["vertical motion"]
+    return (
+        f"rockjax: compiling the Housner solver ({', '.join(what)}) for records of <= "
+        f"{n_pad} samples (once per session: every block, e, scale and record of this kind "
+        "reuses it)..."
+    )
 
 
 def _check_arguments(

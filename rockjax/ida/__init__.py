@@ -1,8 +1,9 @@
 """Incremental dynamic analysis (IDA): one block under records x scale factors, batched.
 
-Every (record, scale) pair is one run of :func:`rockjax.simulate_dem` or
-:func:`rockjax.simulate_housner` (``model="three_branch"``: with a three-branch law) with
-``throw=False``. A facade in a building (``wall_motion=`` a :class:`rockjax.ShearBuilding`)
+Every (record, scale) pair is one run of the model, an object with its own options
+(:class:`rockjax.DEM`: :func:`rockjax.simulate_dem`; :class:`rockjax.Housner`:
+:func:`rockjax.simulate_housner`; :class:`rockjax.ThreeBranch`: ``simulate_housner`` with a
+three-branch law) with ``throw=False``. A facade in a building (``wall_motion=`` a :class:`rockjax.ShearBuilding`)
 has its return walls driven by the building's response to each scaled record; a wall of
 several blocks in a building (an :class:`rockjax.Assembly` with ``support_motion=`` a building
 and ``storey=``) stands on its floor and is held by the floor above. The building is linear:

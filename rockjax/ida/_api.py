@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 
 import jax
@@ -12,11 +13,10 @@ from .._types import ScalarLike
 from ..assembly import Assembly
 from ..block import Block
 from ..building import ShearBuilding
-from ..contact import Joint
-from ..modes import Mode
+from ..models import Model, as_model
+from ..modes import Mode, as_mode
 from ..motion import GroundMotion
-from ..three_branch import ThreeBranchFit, ThreeBranchLaw
-from ._config import DEFAULT_SCALES
+from ._config import DEFAULT_SCALES, gap_unused
 from ._dataset import to_dataset
 from ._plan import make_plan, placement_on
 from ._run import run_plan
@@ -29,28 +29,24 @@ def ida(
     records: Sequence[GroundMotion],
     scales: Float[ArrayLike, " scale"] | Sequence[float] = DEFAULT_SCALES,
     *,
-    model: str = "dem",
+    model: Model | str = "dem",
     mode: Mode | str = "two_sided",
-    beta: ScalarLike | None = None,
-    e: ScalarLike | None = None,
-    gap: ScalarLike | None = None,
+    im: str = "pga",
     tail: ScalarLike = 2.0,
     t_end: ScalarLike | None = None,
     chunk_size: int = 256,
     progress: bool | None = None,
     devices: Sequence[jax.Device] | None = None,
-    im: str = "pga",
-    joint: Joint | None = None,
-    law: ThreeBranchLaw | ThreeBranchFit | None = None,
     wall_motion: ShearBuilding | None = None,
     support_motion: ShearBuilding | None = None,
     storey: int | None = None,
+    **deprecated,
 ) -> xr.Dataset:
     """Incremental dynamic analysis of one block: every record at every scale factor.
 
     Args:
         block: The block (scalar geometry and material), or an :class:`rockjax.Assembly` (a
-            wall of several blocks; ``model="dem"``; ``mode="one_sided"``, ``gap`` and
+            wall of several blocks; ``model=rj.DEM(...)``; ``mode=rj.Facade(gap=...)`` and
             ``wall_motion`` put its blocks' back faces on return walls, as in
             :func:`rockjax.simulate_assembly`). For an assembly ``max_d_over_b`` is the peak
             horizontal displacement of the top block's top centre over the bottom block's
@@ -60,20 +56,23 @@ def ida(
         records: Ground motions, with distinct names. They may differ in length (zero-padded to
             the longest, plus ``tail``) and in ``dt`` (each runs on its own).
         scales: Scale factors [-] applied to each record, strictly increasing, finite, >= 0.
-        model: ``"dem"`` (:func:`rockjax.simulate_dem`), ``"housner"``
-            (:func:`rockjax.simulate_housner`) or ``"three_branch"`` (``simulate_housner`` with
-            ``law``).
+        model: The model with its options (:func:`rockjax.as_model`):
+            ``rj.DEM(beta=..., joint=...)`` (:func:`rockjax.simulate_dem`; ``beta`` [s],
+            Eq. (1), required; the DEM step is the largest divisor of the record step not
+            above ``rj.stable_dt(block, beta, mode=mode)``, as in a single run),
+            ``rj.Housner(e=...)`` (:func:`rockjax.simulate_housner`; ``e`` [-] defaults to
+            ``e_H``, Eq. (2), two-sided, ``|e_1sr|``, Eq. (5), one-sided) or
+            ``rj.ThreeBranch(law)`` (``simulate_housner`` with a three-branch law, e.g.
+            ``rj.fit_three_branch(rj.pushover(block)).law``). Its name (``"dem"``,
+            ``"housner"``, ``"three_branch"``) is the Dataset's ``model`` attribute, and
+            ``"housner"`` is accepted for ``rj.Housner()``.
         mode: :class:`rockjax.Parapet` (``"two_sided"``) or :class:`rockjax.Facade`
-            (``"one_sided"``; :func:`rockjax.as_mode`). The Dataset's ``mode`` attribute is its
-            name.
-        beta: DEM only, required: stiffness-proportional Rayleigh coefficient [s], Eq. (1). The
-            DEM step is the largest divisor of the record step not above
-            ``rj.stable_dt(block, beta, mode=mode)``, as in a single run.
-        e: Housner only: coefficient of restitution [-]; default as in
-            :func:`rockjax.simulate_housner` (``e_H``, Eq. (2), two-sided; ``|e_1sr|``, Eq. (5),
-            one-sided).
-        gap: DEM one-sided only, with ``mode="one_sided"``: facade-to-return-wall gap [m];
-            default None (0, or the Facade's own).
+            (``"one_sided"``; :func:`rockjax.as_mode`); a facade's gap [m] is the DEM's
+            (``rj.Facade(gap=0.001)``; the Housner models refuse one). The Dataset's ``mode``
+            attribute is its name.
+        im: Intensity measure of the Dataset's ``im`` variable: ``"pga"`` [m/s^2], ``"pgv"``
+            [m/s] or ``"sa(T)"``, e.g. ``"sa(0.5)"``, the 5 %-damped pseudo-spectral
+            acceleration at T = 0.5 s [m/s^2] (:func:`rockjax.spectra.parse_im`).
         tail: Free vibration appended after the longest record [s].
         t_end: Length of every run [s]; default the longest record + ``tail``. Give it to make
             a subset of a record set run exactly as in a call on the whole set (a campaign's
@@ -87,14 +86,6 @@ def ida(
             replicated; ``jax.sharding``); default every local device. With one device the
             chunks run as they are. The chunk size is rounded up to a multiple of the device
             count. Results do not depend on it (tests/test_ida.py).
-        im: Intensity measure of the Dataset's ``im`` variable: ``"pga"`` [m/s^2], ``"pgv"``
-            [m/s] or ``"sa(T)"``, e.g. ``"sa(0.5)"``, the 5 %-damped pseudo-spectral
-            acceleration at T = 0.5 s [m/s^2] (:func:`rockjax.spectra.parse_im`).
-        joint: DEM only: the contact joint (:class:`rockjax.Joint`); default ``rj.Joint()``,
-            the converged joint; ``rj.Joint(n_sub=2)`` is the paper's corner contacts. Named
-            in ``attrs["joint"]``.
-        law: ``model="three_branch"`` only, required: the three-branch moment-rotation law
-            (:class:`rockjax.ThreeBranchLaw`, e.g. ``rj.fit_three_branch(rj.pushover(block)).law``).
         wall_motion: One-sided only: a :class:`rockjax.ShearBuilding` whose response to each
             scaled record moves the facade's return walls (``wall_motion=`` of the
             simulators; taken at the block's height, or an assembly's whole height); its
@@ -109,6 +100,10 @@ def ida(
         storey: With ``support_motion``: the storey (1-based) the wall stands in, 1 to
             ``n_storeys`` for a restrained top, up to ``n_storeys + 1`` (the roof) for a free
             one; default 1.
+        **deprecated: The former keywords ``beta``, ``e``, ``joint``, ``law`` (the model's
+            options: give them in the model object) and ``gap`` (the facade's: give it in
+            ``rj.Facade(gap=...)``) still work, with a ``DeprecationWarning`` naming the new
+            form; the results are the same to the bit.
 
     Returns:
         An ``xarray.Dataset`` with dims ``("record", "scale")`` and variables
@@ -126,6 +121,7 @@ def ida(
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.
     """
+    model, mode = _convert(block, model, mode, deprecated)
     devices = list(jax.local_devices() if devices is None else devices)
     if not devices:
         raise ValueError("devices must name at least one device, e.g. jax.local_devices().")
@@ -135,19 +131,38 @@ def ida(
         scales,
         model=model,
         mode=mode,
-        beta=beta,
-        e=e,
-        gap=gap,
         tail=tail,
         t_end=t_end,
         chunk_size=chunk_size,
         n_devices=len(devices),
         im=im,
-        joint=joint,
-        law=law,
         wall_motion=wall_motion,
         support_motion=support_motion,
         storey=storey,
     )
     grids = run_plan(plan, placement_on(devices), progress)
     return to_dataset(plan, grids)
+
+
+DEPRECATED = ("beta", "e", "joint", "law", "gap")
+"""The keywords :func:`ida` took before its model and mode objects carried them."""
+
+
+def _convert(block, model, mode, deprecated: dict):
+    """The model and mode objects of :func:`ida`'s arguments, converted once (the former
+    keywords warned about and folded in)."""
+    unknown = sorted(set(deprecated) - set(DEPRECATED))
+    if unknown:
+        raise TypeError(f"ida() got an unexpected keyword argument {unknown[0]!r}")
+    if deprecated:
+        given = ", ".join(f"{k}=" for k in deprecated)
+        warnings.warn(
+            f"rj.ida({given}...) is deprecated: give the model's options in its object, "
+            "model=rj.DEM(beta=..., joint=...), rj.Housner(e=...) or rj.ThreeBranch(law, e=...), "
+            "and a facade's gap in its mode, mode=rj.Facade(gap=...). The results are the same.",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+    gap = deprecated.pop("gap", None)
+    model = as_model(model, **deprecated)
+    return model, as_mode(mode, gap, unused=gap_unused(block, model))

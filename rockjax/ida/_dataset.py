@@ -68,8 +68,9 @@ def to_dataset(plan: Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
         coords[f"meta_{key}"] = ("record", [r.metadata.get(key, "") for r in records])
     from .. import __version__  # at call time: the package sets it after importing this module
 
+    model = config["model"]
     attrs = {
-        "model": config["model"],
+        "model": model.name,
         "mode": config["mode"].name,
         "im": im.name,
         **block_attrs(block),
@@ -79,17 +80,10 @@ def to_dataset(plan: Plan, grids: dict[str, np.ndarray]) -> xr.Dataset:
         "rockjax_version": __version__,
         "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
     }
-    if config["model"] == "dem":
-        attrs["beta"] = config["beta"]
-        attrs["joint"] = repr(config["joint"])
-    else:
+    if plan.e_used is not None:  # a rigid model: the restitution its runs used
         attrs["e"] = plan.e_used
-        attrs["e_source"] = "given" if plan.e_given else "default (Eq. 2 or Eq. 5)"
-    if config["law"] is not None:
-        law = config["law"]
-        for field in ("lambda_0", "Delta_1", "Delta_2", "Delta_u"):
-            if hasattr(law, field):
-                attrs[f"law_{field}"] = float(getattr(law, field))
+        attrs["e_source"] = "given" if model.e is not None else "default (Eq. 2 or Eq. 5)"
+    attrs |= model.attrs()
     if config["wall_motion"] is not None:
         attrs["building_periods"] = np.asarray(config["wall_motion"].periods, float)
     if config["support_motion"] is not None:

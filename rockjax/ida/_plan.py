@@ -42,7 +42,6 @@ class Plan(NamedTuple):
     block: Block
     config: dict
     e_used: float | None
-    e_given: bool
     scales: np.ndarray
     records: Sequence[GroundMotion]
     groups: list
@@ -63,30 +62,21 @@ def make_plan(
     *,
     model,
     mode,
-    beta,
-    e,
-    gap,
     tail,
     t_end,
     chunk_size,
     n_devices,
     im,
-    joint=None,
-    law=None,
     wall_motion=None,
     support_motion=None,
     storey=None,
 ) -> Plan:
-    """Check the inputs of :func:`ida` and cut its runs into chunks (no run yet)."""
+    """Check the inputs of :func:`ida` and cut its runs into chunks (no run yet); ``model``
+    and ``mode`` are the objects."""
     block, config, e_used = run_config(
         block,
         model=model,
         mode=mode,
-        beta=beta,
-        e=e,
-        gap=gap,
-        joint=joint,
-        law=law,
         wall_motion=wall_motion,
         support_motion=support_motion,
         storey=storey,
@@ -113,7 +103,6 @@ def make_plan(
         block,
         config,
         e_used,
-        e is not None,
         scales,
         records,
         groups,

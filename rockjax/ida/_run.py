@@ -13,8 +13,8 @@ from .. import _progress
 from .._lazy import lazy_module
 from ..assembly import Assembly
 from ..compilation import persistent_jit, strong_scalars
-from ..dem import simulate_assembly, simulate_dem
-from ..housner import batch_runs, simulate_housner
+from ..housner import batch_runs
+from ..models import map_numbers
 from ..motion import GroundMotion
 from ..response import STATUS_OK
 from ..supports import storey_supports, wall_top_motion
@@ -34,11 +34,10 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
     }
     bar = _progress.bar(progress, total=n_rec * n_scale, desc="rockjax.ida", unit="run")
     seen: set[float] = set()
-    building = {"wall_motion", "support_motion", "storey"}
-    config = {k: v for k, v in plan.config.items() if k not in building}
     # the block, beta, e and a facade's gap as data (arrays), not static Python numbers: one
     # program for every value (rockjax.compilation.strong_scalars)
-    config |= strong_scalars({k: config[k] for k in ("beta", "e", "mode")})
+    model = map_numbers(plan.config["model"], strong_scalars)
+    mode = strong_scalars(plan.config["mode"])
     block = strong_scalars(plan.block)
     walls: dict[float, tuple] = {}
     supports: dict[float, tuple] = {}
@@ -88,9 +87,9 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
         # Housner the record step over its number of substeps (static: equal for every
         # block that takes as many)
         steps = max(1, math.ceil(g.dt / plan.config["dt_bound"] - 1e-9))
-        dt_bound = np.asarray(g.dt / steps) if config["model"] == "dem" else g.dt / steps
+        dt_bound = g.dt / steps if model.rigid else np.asarray(g.dt / steps)
         chunk = (block, ag, ag_v, rec_k, scale_k, wall, support)
-        out = run_chunk(*chunk, dt_rec=g.dt, **(config | {"dt_bound": dt_bound}))
+        out = run_chunk(*chunk, model=model, mode=mode, dt_rec=g.dt, dt_bound=dt_bound)
         out = jax.device_get(out)
         if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
             grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
@@ -144,32 +143,24 @@ def run_chunk(
     *,
     model,
     mode,
-    beta,
-    e,
-    joint,
-    law,
     dt_rec,
     dt_bound,
 ):
-    """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (batched); ``wall``:
-    None, or the return wall's ``(u_top, v_top)`` per record at scale 1, scaled likewise;
-    ``support``: None, or an assembly's base acceleration (and top restraint's ``(u, v)``) per
-    record at scale 1 (:func:`support_histories`), scaled likewise."""
-
-    common = dict(beta=beta, mode=mode, dt=dt_bound, joint=joint, throw=False)
+    """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (batched) with the
+    ``model`` object; ``wall``: None, or the return wall's ``(u_top, v_top)`` per record at
+    scale 1, scaled likewise; ``support``: None, or an assembly's base acceleration (and top
+    restraint's ``(u, v)``) per record at scale 1 (:func:`support_histories`), scaled
+    likewise."""
 
     def one(i, s):
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
-        wall_motion = None if wall is None else (s * wall[0][i], s * wall[1][i])
+        kw = {} if wall is None else {"wall_motion": (s * wall[0][i], s * wall[1][i])}
         if isinstance(block, Assembly):
-            kw = {}
             if support is not None:
                 motion = GroundMotion(ag=s * support[0][i], dt=dt_rec, ag_v=motion.ag_v)
                 if len(support) == 3:
                     kw["support_motion"] = (s * support[1][i], s * support[2][i])
-            if wall_motion is not None:
-                kw["wall_motion"] = wall_motion
-            r = simulate_assembly(block, motion, **common, **kw)
+            r = model.simulate(block, motion, mode=mode, dt=dt_bound, throw=False, **kw)
             top = block.blocks[-1]
             # (r.x is already relative to the block's rest position)
             d = r.x[:, -1] + 0.5 * top.h * jnp.sin(r.theta[:, -1])
@@ -180,20 +171,9 @@ def run_chunk(
                 "collapse": r.overturned & ok,
                 "status": r.status.astype(jnp.int32),
             }
-        if model == "dem":
-            r = simulate_dem(
-                block,
-                motion,
-                **common,
-                **({} if wall_motion is None else {"wall_motion": wall_motion}),
-            )
-            d_max = r.extras["d_max"]
-        else:
-            extra = {} if law is None else {"law": law}
-            if wall_motion is not None:
-                extra["wall_motion"] = wall_motion
-            r = simulate_housner(block, motion, e=e, mode=mode, dt=dt_bound, throw=False, **extra)
-            d_max = block.top_displacement(r.theta_max)
+        r = model.simulate(block, motion, mode=mode, dt=dt_bound, throw=False, **kw)
+        # the DEM's running maximum over every step; a rigid block's from its peak rotation
+        d_max = block.top_displacement(r.theta_max) if model.rigid else r.extras["d_max"]
         ok = r.status == STATUS_OK
         heel = {} if "t_heel" not in r.extras else {"t_heel": r.extras["t_heel"]}
         return {
@@ -203,6 +183,6 @@ def run_chunk(
             "status": r.status.astype(jnp.int32),
         } | heel
 
-    if model == "dem" or isinstance(block, Assembly):
+    if not model.rigid:
         return jax.vmap(one)(rec_idx, scale)
     return batch_runs(one, rec_idx, scale)  # on CPU one run after another (much faster)

@@ -21,6 +21,8 @@ import numpy as np  # noqa: E402
 
 import rockjax as rj  # noqa: E402
 
+rj.compilation.configure_cpu()  # with the suite's flags, as tests/conftest.py does
+
 OUT = Path(__file__).with_name("reference_histories.npz")
 
 
