@@ -32,6 +32,7 @@ from ..building import ShearBuilding
 from ..constants import G
 from ..fragility import Fragility, fragility
 from ..ida import DEFAULT_SCALES
+from ..models import DEM, Model, as_model
 from ..modes import Facade, Parapet
 from ..motion import GroundMotion
 from ..spectra import intensity, parse_im
@@ -320,7 +321,7 @@ class Catalogue:
         *,
         im: str = "pga",
         scales=DEFAULT_SCALES,
-        model: str = "housner",
+        model: str | Model = "housner",
         beta: Mapping[str, float] | None = None,
         d_over_b: Sequence[float] = (),
         tail: float = 2.0,
@@ -338,7 +339,9 @@ class Catalogue:
                 site), as the engine's ``PGA`` / ``SA(T)``.
             scales: Scale factors of the records [-] (wide enough that every class both
                 survives and collapses).
-            model: ``"housner"`` (default) or ``"dem"`` (then ``beta`` per class id, [s]).
+            model: ``"housner"`` (default, its default restitution), ``"dem"`` (then ``beta``
+                per class id, [s]), or one model object for every class
+                (``rj.Housner(e=...)``, ``rj.DEM(beta=...)``; :func:`rockjax.as_model`).
             beta: DEM damping per class id [s].
             d_over_b: Thresholds of milder limit states (``d/b >= x``), fitted with collapse
                 by :func:`rockjax.openquake.limit_state_fragilities`; empty: collapse only.
@@ -366,14 +369,17 @@ class Catalogue:
         sets = self.record_sets(records)
         cases = []
         for c in self.classes:
-            kw = {}
-            if model == "dem":
+            if isinstance(model, str) and model == "dem":
                 if beta is None or c.id not in beta:
-                    raise ValueError(f"model='dem' needs beta per class id [s]; none for {c.id!r}.")
-                kw = dict(beta=float(beta[c.id]), mode=c.mode())
+                    raise ValueError(
+                        f"model='dem' needs beta per class id [s] (beta={{class id: beta}}); "
+                        f"none for {c.id!r}."
+                    )
+                run_model, mode = DEM(beta=float(beta[c.id])), c.mode()
             else:
-                kw = dict(mode=c.mode().without_gap())
-            cases.append(campaign.Case(c.id, c.block(), c.host_key(), model=model, **kw))
+                run_model = as_model(model)
+                mode = c.mode() if isinstance(run_model, DEM) else c.mode().without_gap()
+            cases.append(campaign.Case(c.id, c.block(), c.host_key(), model=run_model, mode=mode))
         raw = campaign.run(
             cases,
             sets,

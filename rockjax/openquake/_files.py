@@ -196,7 +196,6 @@ def scenario_job(
     imt: str = "PGA",
     loss_category: str = "nonstructural",
     taxonomy_mapping: str | os.PathLike | None = None,
-    description: str = "rockjax: scenario damage of parapets and facades",
 ) -> Path:
     """Write a ``scenario_damage`` job with given ground-motion fields (``job.ini``).
 
@@ -211,7 +210,6 @@ def scenario_job(
         imt: The engine's IM type of the fields and the model.
         loss_category: The model's loss category (the key ``<loss_category>_fragility_file``).
         taxonomy_mapping: The taxonomy mapping CSV, if the assets' taxonomies are not class ids.
-        description: The job's description.
 
     Returns:
         The path of ``job.ini``.
@@ -230,7 +228,7 @@ def scenario_job(
 
     lines = [
         "[general]",
-        f"description = {description}",
+        "description = rockjax: scenario damage of parapets and facades",
         "calculation_mode = scenario_damage",
         f"exposure_file = {rel(exposure)}",
         f"{loss_category}_fragility_file = {rel(fragility)}",

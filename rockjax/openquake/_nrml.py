@@ -25,6 +25,8 @@ from ..fragility import Fragility
 from ..spectra import is_im_name, parse_im
 
 NRML_NS = "http://openquake.org/xmlns/nrml/0.5"
+MODEL_ID = "rockjax"
+DESCRIPTION = "URM parapet and facade collapse fragilities computed by rockjax"
 LOSS_CATEGORIES = ("structural", "nonstructural", "contents", "business_interruption")
 ID_PATTERN = re.compile(r"^[A-Za-z0-9_-]{1,75}$")
 """Class ids and limit-state names the engine reads as identifiers (its ``source_id`` rule, the
@@ -61,8 +63,7 @@ def engine_imt(im: str) -> str:
     if not isinstance(im, str) or not is_im_name(im):
         raise ValueError(
             f"im={im!r} is no intensity measure the OpenQuake engine has; fit the fragility in "
-            "'pga', 'pgv' or 'sa(T)' (rj.fragility(ds, im='pga')), or pass imt='PGA' with the "
-            "fragility's IM in the units of that IM type."
+            "'pga', 'pgv' or 'sa(T)': rj.fragility(ds, im='pga')."
         )
     spec = parse_im(im)
     return spec.name.upper()
@@ -163,13 +164,10 @@ def fragility_model(
     *,
     limit_states: str | tuple[str, ...] | None = None,
     loss_category: str = "nonstructural",
-    model_id: str = "rockjax",
-    description: str = "URM parapet and facade collapse fragilities computed by rockjax",
     form: str = "continuous",
     n_levels: int = 40,
     iml_range: tuple[float, float] | Mapping[str, tuple[float, float]] | None = None,
     no_damage_limit: bool = True,
-    imt: str | None = None,
 ) -> str:
     """Write an NRML 0.5 ``fragilityModel`` that the OpenQuake engine reads.
 
@@ -193,8 +191,6 @@ def fragility_model(
         loss_category: ``"nonstructural"`` (default: parapets and facades), ``"structural"``,
             ``"contents"`` or ``"business_interruption"``; the job's key is
             ``<loss_category>_fragility_file``.
-        model_id: The model's id.
-        description: The model's description.
         form: ``"continuous"`` (``logncdf``, exact) or ``"discrete"`` (``n_levels`` IM levels,
             geometric over the range, which the engine interpolates linearly).
         n_levels: Levels of the discrete form (>= 2).
@@ -204,9 +200,6 @@ def fragility_model(
             below the lowest IM that was run. False leaves it out: the engine then holds the
             probability at its ``minIML`` value (continuous) or its first level's (discrete)
             down to IM 0.
-        imt: The engine's IM type (``"PGA"``, ``"SA(0.3)"``, ``"PGV"``) for fragilities fitted in a
-            Dataset variable rather than a named IM; their ``im_units`` must be those of that
-            type (``"m/s^2"`` or ``"g"``; ``"m/s"`` or ``"cm/s"``).
 
     Returns:
         The IM type written (e.g. ``"PGA"``): the job's ``intensity_measure_types``.
@@ -221,7 +214,6 @@ def fragility_model(
             f"loss_category must be one of {LOSS_CATEGORIES}; got {loss_category!r}. Parapets "
             "and facades are 'nonstructural'."
         )
-    check_id("model_id", model_id)
     if form not in ("continuous", "discrete"):
         raise ValueError(f"form must be 'continuous' or 'discrete'; got {form!r}.")
     if isinstance(n_levels, bool) or not (isinstance(n_levels, int) and n_levels >= 2):
@@ -233,10 +225,8 @@ def fragility_model(
             f"every fragility of one model must be in the same IM; got {sorted(ims)}. Fit them "
             "all with rj.fragility(ds, im=...) of one IM, or write one model per IM."
         )
-    imt = engine_imt(every[0].im) if imt is None else imt
-    kind = imt.split("(")[0]
-    if kind not in _TO_ENGINE or (kind == "SA") != ("(" in imt):
-        raise ValueError(f"imt must be 'PGA', 'PGV' or 'SA(T)' with T in s; got {imt!r}.")
+    imt = engine_imt(every[0].im)
+    kind = imt.split("(")[0]  # PGA, PGV or SA
     units = {f.im_units for f in every}
     if len(units) != 1 or next(iter(units)) not in _TO_ENGINE[kind]:
         raise ValueError(
@@ -249,9 +239,9 @@ def fragility_model(
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<nrml xmlns="{NRML_NS}">',
-        f'<fragilityModel id="{model_id}" assetCategory="buildings" '
+        f'<fragilityModel id="{MODEL_ID}" assetCategory="buildings" '
         f'lossCategory="{loss_category}">',
-        f"  <description>{escape(description)}</description>",
+        f"  <description>{escape(DESCRIPTION)}</description>",
         f"  <limitStates>{' '.join(names)}</limitStates>",
     ]
     for cid, value in per_class.items():
