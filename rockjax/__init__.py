@@ -19,6 +19,7 @@ from . import campaign as campaign  # noqa: E402  (dask is imported lazily insid
 from . import compilation as compilation  # noqa: E402
 from . import jsonio as jsonio  # noqa: E402
 from . import metrics as metrics  # noqa: E402
+from . import openquake as openquake  # noqa: E402  (writes files; never imports the engine)
 from . import plot as plot  # noqa: E402  (matplotlib is imported lazily inside)
 from . import pulses as pulses  # noqa: E402
 from . import records as records  # noqa: E402
@@ -132,6 +133,7 @@ __all__ = [
     "metrics",
     "omega_crit",
     "omega_hcrit",
+    "openquake",
     "plot",
     "pulses",
     "pushover",

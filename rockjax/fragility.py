@@ -87,6 +87,9 @@ class Fragility:
         im_units: Units of the IM (``"m/s^2"``, ``"m/s"``, ``"g"``; "" if it has none).
         boot_median: The bootstrap medians (failed resamples left out), read-only.
         boot_beta_log: The matching bootstrap ``beta_log`` values, read-only.
+        im_range: ``(lo, hi)`` lowest and highest IM of the valid runs, in the IM's units: the
+            range the fit rests on (what :func:`rockjax.openquake.fragility_model` writes as
+            ``minIML`` / ``maxIML``); NaN for a Fragility built by hand.
     """
 
     median: float
@@ -103,6 +106,7 @@ class Fragility:
     im_units: str
     boot_median: np.ndarray = dataclasses.field(repr=False, compare=False)
     boot_beta_log: np.ndarray = dataclasses.field(repr=False, compare=False)
+    im_range: tuple[float, float] = dataclasses.field(default=(math.nan, math.nan), compare=False)
 
     @property
     def median_g(self) -> float | None:
@@ -332,6 +336,7 @@ def fragility(
         im_units=im_units,
         boot_median=boot_median,
         boot_beta_log=boot_beta_log,
+        im_range=(float(x_im[valid].min()), float(x_im[valid].max())),
     )
 
 
