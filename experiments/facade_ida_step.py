@@ -1,0 +1,139 @@
+"""What the DEM facade IDA costs, and which step its outputs need.
+
+A facade's DEM step is set for its bounces (``rj.Facade.dt_accuracy`` = 0.35: rebound peaks
+within 2 % of a 16x finer step, docs/verification.md); a parapet's for its first impact
+(1.0). An IDA reads two numbers of each run: the peak ``d/b`` and the collapse flag. This
+study runs the FEMA P695 far-field set (44 components, each normalised to PGA = 1 g) at 20
+PGAs (0.05-2 g, geometric) on the 0.2 x 1.5 m block with a 1 mm gap (``rj.Facade(gap=0.001)``) at its calibrated ``beta``:
+
+1. **Cost**: the same IDA as a parapet, as a facade at the default step, and with Housner,
+   each timed on its second call (warm: compiled).
+2. **Step**: the facade IDA at ``accuracy`` 0.35 (the default), 0.7 and 1.0 against a
+   reference at 0.175 (half the default step): the share of runs whose collapse flag agrees,
+   and the error of the peak ``d/b`` of the runs that stand in both, relative to the
+   reference's (median, 95th percentile, largest), over the runs that rock (reference
+   ``d/b >= 0.01``).
+
+    python experiments/facade_ida_step.py [--out experiments/results/facade_ida_step]
+
+``beta`` is fitted once (``rj.fit_beta(block, mode=rj.Facade(gap=0.001))``, the facade's
+default target: its bounces) and kept in ``beta.json``. Writes ``summary.json`` and prints the
+tables quoted in docs/benchmarks.md ("Facade IDA: cost and step").
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import time
+
+import numpy as np
+
+import rockjax as rj
+
+BLOCK = rj.Block(b=0.2, h=1.5)
+GAP = 0.001  # [m]
+SCALES_G = np.geomspace(0.05, 2.0, 20)  # PGA of the scaled record [g]
+REFERENCE_ACCURACY = 0.175
+ACCURACIES = (0.35, 0.7, 1.0)
+ROCKS = 0.01  # d/b of the reference above which a run counts as rocking
+
+
+def load() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def records():
+    """The far-field set, each component normalised to PGA = 1 g: a scale is the PGA in g."""
+    return [r.scaled_to_pga(target_pga_g=1.0) for r in rj.records.fema_p695("farfield")]
+
+
+def beta_of(out: pathlib.Path, mode) -> float:
+    path = out / "beta.json"
+    if path.is_file():
+        return float(json.loads(path.read_text())["beta"])
+    fit = rj.fit_beta(BLOCK, mode=mode)
+    path.write_text(json.dumps({"beta": float(fit.beta), "block": [0.2, 1.5], "gap": GAP}))
+    return float(fit.beta)
+
+
+def ida(recs, scales, model, mode):
+    t0 = time.perf_counter()
+    ds = rj.ida(BLOCK, recs, scales, model=model, mode=mode, progress=False)
+    return ds, time.perf_counter() - t0
+
+
+def compare(ds, ref) -> dict:
+    c, c_ref = ds["collapse"].values, ref["collapse"].values
+    ok = (ds["status"].values == 0) & (ref["status"].values == 0)
+    d, d_ref = ds["max_d_over_b"].values, ref["max_d_over_b"].values
+    stand = ok & ~c & ~c_ref & (d_ref >= ROCKS)
+    err = np.abs(d[stand] / d_ref[stand] - 1.0)
+    return {
+        "runs": int(ok.sum()),
+        "collapse_agrees": float(np.mean(c[ok] == c_ref[ok])),
+        "collapse_differs": int(np.sum(c[ok] != c_ref[ok])),
+        "rocking_standing": int(stand.sum()),
+        "err_median": float(np.median(err)),
+        "err_p95": float(np.quantile(err, 0.95)),
+        "err_max": float(np.max(err)),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="experiments/results/facade_ida_step")
+    ap.add_argument("--quick", action="store_true", help="4 components x 5 scales (a smoke run)")
+    args = ap.parse_args()
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    facade = rj.Facade(gap=GAP)
+    recs = records()
+    scales = SCALES_G
+    if args.quick:
+        recs, scales = recs[:4], SCALES_G[::4]
+    beta = beta_of(out, facade)
+    print(f"facade IDA study: {len(recs)} far-field components x {scales.size} scales, "
+          f"0.2 x 1.5 m, gap {GAP} m, beta {beta:.4g} s; load {load()}", flush=True)  # fmt: skip
+    summary: dict = {"beta": beta, "n_records": len(recs), "n_scales": int(scales.size)}
+
+    # 1. cost, warm
+    cost = {}
+    for name, model, mode in (
+        ("parapet DEM", rj.DEM(beta=beta), rj.Parapet()),
+        ("facade DEM", rj.DEM(beta=beta), facade),
+        ("facade Housner", rj.Housner(), facade.without_gap()),  # rigid: flush on its walls
+    ):
+        _, first = ida(recs, scales, model, mode)
+        _, warm = ida(recs, scales, model, mode)
+        cost[name] = {"first_s": first, "warm_s": warm}
+        print(f"  {name:<15} first call {first:7.1f} s, warm {warm:7.1f} s", flush=True)
+    ratio = cost["facade DEM"]["warm_s"] / cost["parapet DEM"]["warm_s"]
+    print(f"  facade / parapet (warm): {ratio:.2f}x", flush=True)
+    summary["cost"] = cost
+
+    # 2. the step the IDA's outputs need
+    ref, t_ref = ida(recs, scales, rj.DEM(beta=beta, accuracy=REFERENCE_ACCURACY), facade)
+    print(f"  reference, accuracy {REFERENCE_ACCURACY}: {t_ref:.1f} s", flush=True)
+    steps = {}
+    for acc in ACCURACIES:
+        ds, t = ida(recs, scales, rj.DEM(beta=beta, accuracy=acc), facade)
+        row = compare(ds, ref) | {"time_s": t}
+        steps[str(acc)] = row
+        print(
+            f"  accuracy {acc:<5} {t:7.1f} s; collapse flags agree {row['collapse_agrees']:.2%} "
+            f"({row['collapse_differs']} differ); peak d/b of {row['rocking_standing']} rocking "
+            f"runs: median {row['err_median']:.2e}, p95 {row['err_p95']:.2e}, "
+            f"max {row['err_max']:.2e}",
+            flush=True,
+        )
+    summary["step"] = steps
+    summary["load_end"] = load()
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    print(f"load at end {load()}")
+
+
+if __name__ == "__main__":
+    main()
