@@ -13,6 +13,7 @@ import numpy as np
 
 from .. import __version__, jsonio, plot
 from ..assembly import TOPS, Assembly
+from ..modes import Mode
 from ..pushover import MAX_D_OVER_B, Capacity, pushover
 from ..relations import beta_dejong
 from ..three_branch import fit_three_branch
@@ -100,8 +101,8 @@ def add_pushover_parser(sub) -> None:
 def _pushover(args: argparse.Namespace) -> int:
     t_start = time.perf_counter()
     files = outputs_of(args, "pushover")  # before any run
-    body, what = _body(args)
     mode = mode_of(args)
+    body, what = _body(args, mode)
     joint = joint_of(args)
     if args.beta is not None and not (math.isfinite(args.beta) and args.beta >= 0):
         raise ValueError(
@@ -192,7 +193,7 @@ def _pushover(args: argparse.Namespace) -> int:
     return 0
 
 
-def _body(args: argparse.Namespace):
+def _body(args: argparse.Namespace, mode: Mode):
     """The block, or the stack of ``--blocks`` equal blocks, and its description."""
     if args.blocks < 1:
         raise ValueError(
@@ -205,7 +206,7 @@ def _body(args: argparse.Namespace):
             )
         block = block_of(args)
         return block, f"block {block_text(block)}"
-    if args.mode != "two_sided" or args.gap is not None:
+    if mode.one_sided or args.gap is not None:
         raise ValueError(
             "--mode one_sided / --gap: a stack (--blocks >= 2) stands free on the ground; "
             "drop --mode and --gap (the facade pushover is of one block)."
