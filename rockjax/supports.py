@@ -30,11 +30,11 @@ import numpy as np
 
 from ._checks import check_below, check_scalar, check_series_pair, concrete, is_array_pair
 from ._types import ScalarLike, TimeSeries
+from ._walls import check_wall_rotation
 from .assembly import Assembly
 from .building import MAX_HEIGHT, MM_FIX, ShearBuilding
 from .compilation import bucket_length, is_traced
 from .motion import GroundMotion
-from .walls import check_wall_rotation
 
 
 class SupportHistory(eqx.Module):

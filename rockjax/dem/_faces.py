@@ -29,6 +29,7 @@ import math
 import jax.numpy as jnp
 
 from .._fusion import computed_once, one_computation, sum_together
+from .._walls import wall_line, wall_pivot, wall_rise
 from ..contact import (
     closed_interval,
     coulomb,
@@ -38,7 +39,6 @@ from ..contact import (
     normal_force,
     shear_force,
 )
-from ..walls import wall_line, wall_pivot, wall_rise
 from ._algebra import add, is_zero, mul, plus
 from ._params import DemParams, DemState, span
 
@@ -116,7 +116,7 @@ def wall_kinematics(p: DemParams, st: DemState, k: int, motion=None):
     face at rest, ``gap`` behind it), ``delta = x_wall - x``. A moving wall (``motion =
     (u_top, v_top)`` [m, m/s] at the stack's height ``H``) is those lines turned rigidly to
     ``theta_w = u_top / H`` about block 0's toe ``(x0_0 + b_0/2 - gap, 0)`` (its heel for
-    ``theta_w < 0``): :func:`rockjax.walls.wall_line`, whose line ``x = x0 + slope y`` gives
+    ``theta_w < 0``): ``wall_line`` (``rockjax/_walls.py``), whose line ``x = x0 + slope y`` gives
     ``delta = x0 + slope y - x``. The last value returned is then ``(slope, x0', slope',
     x_pivot, theta_w')`` (None for a fixed wall)."""
     c, s, x, y = st.c[k], st.s[k], st.x[k], st.y[k]
