@@ -271,6 +271,7 @@ def test_class_ids_and_binning():
 
 
 FLOOR_RTOL = 1e-12
+SAME_RUN_RTOL = 1e-12  # the same runs in batches of other sizes: round-off
 """A linear building: floor motion of the scaled record vs the scaled floor motion (round-off)."""
 
 
@@ -308,4 +309,38 @@ def test_catalogue_run_fits_in_the_ground_im(tmp_path):
     assert frags[cid].im == "pga" and frags[cid].im_range == (
         float(ds["im"].min()),
         float(ds["im"].max()),
+    )
+
+
+def test_dem_class_runs_the_dem_on_its_floor_motion(tmp_path):
+    """The catalogue's DEM path (``model="dem"``, a beta per class): its campaign gives the
+    same runs as ``rj.ida`` of the DEM on the class's floor records, called directly."""
+    cat = oq.Catalogue.grid(parapet_b=(0.2,), parapet_h=(1.0,), facade_b=(), storeys=(2,))
+    (c,) = cat.classes
+    records = [
+        rj.GroundMotion.ricker(1.0, T, dt=0.005, name=f"r{i}")
+        for i, T in enumerate(RECORD_PERIODS[:3])
+    ]
+    scales = SCALES[::3]
+    beta = 0.5 * float(rj.beta_dejong(c.block()))
+    datasets, _ = cat.run(
+        records,
+        tmp_path,
+        scales=scales,
+        model="dem",
+        beta={c.id: beta},
+        progress=False,
+        n_workers=1,
+    )
+    floor = cat.record_sets(records)[c.host_key()]
+    t_end = float(datasets[c.id].attrs["t_end"])
+    direct = rj.ida(
+        c.block(), floor, scales, model=rj.DEM(beta=beta), mode=c.mode(), t_end=t_end,
+        progress=False,
+    )  # fmt: skip
+    got = datasets[c.id]
+    assert got.attrs["model"] == "dem" and float(got.attrs["beta"]) == beta
+    np.testing.assert_array_equal(got["collapse"].values, direct["collapse"].values)
+    np.testing.assert_allclose(
+        got["max_d_over_b"].values, direct["max_d_over_b"].values, rtol=SAME_RUN_RTOL
     )
