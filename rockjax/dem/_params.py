@@ -19,7 +19,7 @@ from .._checks import (
 )
 from ..assembly import ASSEMBLY_GAP_UNUSED, Assembly
 from ..block import Block
-from ..compilation import persistent_jit, strong_scalars
+from ..compilation import strong_scalars
 from ..contact import Joint
 from ..modes import MODE_NAMES, Facade, Mode, Parapet, as_mode
 
@@ -362,15 +362,6 @@ def steps(p: DemParams, accuracy):
     w = omega_max(p)
     zeta = 0.5 * p.beta * w
     return 2.0 / w, jnp.minimum(accuracy / (w * (1.0 + zeta)), DT_SAFETY * 2.0 / w)
-
-
-_steps_program = persistent_jit(steps)
-
-
-def steps_compiled(p: DemParams, accuracy):
-    """:func:`steps` compiled once for every body of a shape and every accuracy, and kept on
-    disk with the persistent cache (:func:`rockjax.compilation.persistent_jit`)."""
-    return _steps_program(p, np.float64(accuracy))
 
 
 def check_accuracy(accuracy, mode: Mode, joint: Joint) -> float:

@@ -23,9 +23,7 @@ from ._params import (
     as_assembly,
     check_accuracy,
     check_params,
-    dem_params,
     mode_of,
-    steps_compiled,
 )
 from ._response import AssemblyResponse, cut, cut_block
 from ._run import failure_message, padded_length, run, run_block
@@ -290,8 +288,9 @@ def concrete_steps(p, body, steps, beta_max, joint, mode, dt, accuracy):
     if beta_max is not None:
         try:  # rebuilt from the body: p may hold tracers when only beta is traced
             with jax.ensure_compile_time_eval():
-                p_max = dem_params(body, beta_max, mode=mode, joint=joint, phi_deg=45.0)
-                return tuple(map(float, steps_compiled(p_max, accuracy)))
+                check_params(beta_max, mode, joint, 45.0)
+                _, steps_max, _ = set_up(body, beta_max, mode, joint, 45.0, accuracy, 0.0)
+                return tuple(map(float, steps_max))
         except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
             raise ValueError(
                 "beta_max cannot size the time step when the block itself is traced; pass "
