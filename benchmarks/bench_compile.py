@@ -351,6 +351,11 @@ _DEM_LOOP = textwrap.dedent(
             lambda b=b, h=h: rj.simulate_dem(rj.Block(b=b, h=h), rec, beta=1e-3)
             for b, h in ((0.25, 1.5), (0.2, 1.0), (0.3, 2.5), (0.4, 3.0))
         ],
+        "6 fit_beta geometries": [  # five in one bucket of durations, the last in the next
+            lambda b=b, h=h: rj.fit_beta(rj.Block(b=b, h=h), 0.95).dem
+            for b, h in ((0.2, 1.5), (0.18, 1.8), (0.15, 1.2), (0.25, 1.5), (0.3, 2.0),
+                         (0.25, 3.0))
+        ],
     }
     calls = loops[sys.argv[1]]
     rows = []
@@ -358,12 +363,19 @@ _DEM_LOOP = textwrap.dedent(
         n0, t = len(programs), time.perf_counter()
         r = call()
         jax.block_until_ready(r.theta)
+        dt_out = float(r.t[1] - r.t[0])  # the record's step, or a fit's output step
         rows.append((time.perf_counter() - t, len(programs) - n0, sum(programs[n0:]),
-                     round(rec.dt / float(r.extras["dt"]))))
+                     round(dt_out / float(r.extras["dt"]))))
     json.dump({"rockjax": rj.__file__, "rows": rows}, sys.stdout)
     """
 )
-DEM_LOOPS = ("6 betas (parapet)", "3 gaps (facade)", "5 record scales", "4 geometries")
+DEM_LOOPS = (
+    "6 betas (parapet)",
+    "3 gaps (facade)",
+    "5 record scales",
+    "4 geometries",
+    "6 fit_beta geometries",
+)
 
 
 def _dem_loop(name: str, tree: str | None) -> list:

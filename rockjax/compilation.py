@@ -43,6 +43,7 @@ under ``grad``). rockjax avoids this, and says when it compiles:
 from __future__ import annotations
 
 import collections
+import contextlib
 import dataclasses
 import enum
 import functools
@@ -102,6 +103,7 @@ nor in :func:`configure_cpu`) and says nothing about :data:`XLA_CPU_OPTION`."""
 _OFF = ("", "0", "off", "no", "false", "none")
 _LOG = logging.getLogger("rockjax")
 _NOTICED: set[Hashable] = set()
+_PENDING: list[str] = []  # notice_when_compiling's message, said at the first compilation
 
 
 def bucket_length(n: int, *, growth: float = BUCKET_GROWTH, minimum: int = BUCKET_MIN) -> int:
@@ -315,6 +317,29 @@ def notice_once(key: Hashable, message: str) -> bool:
     _NOTICED.add(key)
     notice(message)
     return True
+
+
+@contextlib.contextmanager
+def notice_when_compiling(message: str):
+    """Within the block, say ``message`` (one line) just before the first
+    :func:`persistent_jit` program that is compiled (none in memory, none kept on disk), and
+    not at all when every program is ready: the notice of a driver, as ``fit_beta``, that
+    runs several programs."""
+    depth = len(_PENDING)
+    _PENDING.append(message)
+    try:
+        yield
+    finally:
+        del _PENDING[depth:]
+
+
+def _say_pending() -> None:
+    """Say the innermost pending :func:`notice_when_compiling` message, once."""
+    if _PENDING:
+        message = _PENDING[-1]
+        _PENDING[-1] = ""  # said: the block stays open, the message is spent
+        if message:
+            notice(message)
 
 
 def notice(message: str) -> None:
@@ -677,6 +702,14 @@ def persistent_jit(fn):
                 pass
         if _export_dir() is None:
             last.clear()
+            if _PENDING:  # in a driver's block: its notice comes with the first new program
+                try:
+                    sig = signature(args, kwargs)
+                except TypeError:
+                    sig = None
+                if sig is not None and sig[-1] not in seen:
+                    seen.add(sig[-1])
+                    _say_pending()
             return jitted(*args, **kwargs)
         try:
             sig = signed(args, kwargs)
@@ -688,6 +721,10 @@ def persistent_jit(fn):
         leaves, avals, memo = sig
         entry = programs.get(memo)
         if entry is None:
+            if _PENDING and _PENDING[-1]:
+                path = kept_path(args, kwargs)
+                if path is None or not path.is_file():
+                    _say_pending()
             entry = programs[memo] = export(args, kwargs, avals)
         if entry is plain:
             sources["plain"] += 1

@@ -13,6 +13,7 @@ import math
 import jax
 import numpy as np
 import pytest
+from helpers import count_compiles
 from scipy.signal import find_peaks
 
 import rockjax as rj
@@ -101,6 +102,25 @@ def test_second_identical_fit_neither_traces_nor_compiles(caplog):
     ]
     assert work == []
     assert again.beta == first.beta
+
+
+def test_a_fit_of_another_geometry_in_the_bucket_compiles_nothing_and_says_nothing(caplog):
+    """A loop over geometries compiles the fit's programs once per bucket of run durations.
+    Reference: a count of XLA compilations (cache hits included). The notice comes with a
+    fit that compiles, and only then."""
+    first, other = rj.Block(b=0.2, h=1.5), rj.Block(b=0.18, h=1.8)  # h/b 7.5 and 10
+    with caplog.at_level(logging.INFO, logger="rockjax"), count_compiles() as compiles:
+        fit_a = rj.fit_beta(first, e=E_TARGET)
+    noted = [r for r in caplog.records if "compiling the parapet calibration" in r.getMessage()]
+    assert len(noted) == (1 if compiles else 0)
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="rockjax"), count_compiles() as compiles:
+        fit_b = rj.fit_beta(other, e=E_TARGET)
+    # the same bucket: both free-rocking runs last as long
+    assert fit_b.dem.t[-1] == fit_a.dem.t[-1]
+    assert compiles == []
+    assert not [r for r in caplog.records if "compiling" in r.getMessage()]
+    assert fit_b.converged and abs(fit_b.beta - fit_a.beta) > 1e-5  # a fit of its own
 
 
 def test_history_error_small_for_corner_contacts_only(grid_fit):
@@ -387,6 +407,7 @@ def test_facade_default_is_the_best_match_and_reports_the_bands(facade_fit):
     assert "best match" in repr(fit) or met
 
 
+@pytest.mark.slow  # 55-70 s: the facade's whole walk; ./test.sh -m slow
 def test_facade_best_match_walks_off_a_shoulder():
     """On the 0.1 x 1 m facade L-BFGS stopped on a shoulder of the loss, 3.4 % of beta short of
     its minimum at a loss 7.5 % higher, and reported converged (docs/calibration.md,

@@ -15,7 +15,7 @@ import numpy as np
 from .. import _progress
 from .._checks import check_choice, check_scalar
 from ..block import Block
-from ..compilation import notice_once, persistent_jit
+from ..compilation import notice_when_compiling, persistent_jit
 from ..contact import Joint
 from ..modes import Mode, as_mode
 from ..relations import e_isr
@@ -180,9 +180,19 @@ def fit_beta(
             # Eq. 5: Housner's one-sided reference, |e_1SR|
             e = mode.e_magnitude(float(mode.default_e(concrete_block(block))))
         check_target("e", e, mode)
-        return _fit_history_error(block, e, mode=mode, **kw)
+        with notice_when_compiling(compiling(mode, "history")):
+            return _fit_history_error(block, e, mode=mode, **kw)
     target = check_target(target, e, mode)
-    return _fit_peaks(block, e, target=target, mode=mode, method=method, n_grid=n_grid, **kw)
+    with notice_when_compiling(compiling(mode, method)):
+        return _fit_peaks(block, e, target=target, mode=mode, method=method, n_grid=n_grid, **kw)
+
+
+def compiling(mode, method: str) -> str:
+    """The notice of a fit that compiles (:func:`rockjax.compilation.notice_when_compiling`)."""
+    return (
+        f"rockjax: compiling the {type(mode).__name__.lower()} calibration's programs ({method}: DEM "
+        "and Housner runs; kept for later calls and, with the cache on, later sessions)..."
+    )
 
 
 def _fit_peaks(
@@ -205,10 +215,6 @@ def _fit_peaks(
 ) -> Calibration:
     """:func:`fit_beta` with the bounce loss, its options checked (``target`` resolved)."""
     t_start = time.perf_counter()
-    notice_once(
-        ("fit_beta", mode.name, method),
-        f"rockjax: compiling the {mode.name} calibration (DEM and Housner runs; once per session)...",
-    )
     problem, h_resps = build_problem(
         block,
         e=e,

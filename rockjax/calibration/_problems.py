@@ -26,7 +26,7 @@ from .._checks import (
     check_scalar,
 )
 from ..block import Block
-from ..compilation import persistent_jit
+from ..compilation import persistent_jit, strong_scalars
 from ..contact import Joint
 from ..dem import simulate_dem, stable_dt
 from ..housner import simulate_housner
@@ -48,7 +48,7 @@ by 8; calibrate/REPORT.md), still far below ``beta_DeJong``."""
 
 class CalibrationProblem(eqx.Module):
     """Everything a ``beta`` loss evaluation needs (:func:`problem` builds it); arrays traced,
-    the rest static (one compile per geometry/duration).
+    the rest static (one compile per bucket of durations, :func:`run_duration`).
 
     Attributes:
         block: The block (concrete floats).
@@ -82,7 +82,7 @@ class CalibrationProblem(eqx.Module):
     kind: str = eqx.field(static=True)  # "e" or "bounces"
     n_bounces: int = eqx.field(static=True)
     duration: float = eqx.field(static=True)
-    dt: float = eqx.field(static=True)
+    dt: jax.Array
     joint: Joint = eqx.field(static=True)
     hysteresis: float = eqx.field(static=True)
     ref_theta: jax.Array | None = None  # Housner's histories (n_release, T) [rad], kind "e"
@@ -264,12 +264,21 @@ Housner's rigid block (0.375 x 6.44 m at beta = 0: 8 bounces in 17.3 s against 1
 ratio of 1.3; docs/theory.md, "Statics and the rocking period")."""
 
 
+DURATION_GROWTH = 1.5
+"""Ratio between consecutive run durations of the fits [-]: every block whose free-rocking run
+falls in one of these buckets shares the fit's compiled programs (a loop over geometries
+compiles once per bucket), at the cost of runs at most this much longer than needed."""
+
+
 def run_duration(block: Block, theta0: np.ndarray, n_bounces: int) -> float:
     """Duration [s] long enough for impact ``n_bounces + 1`` of the DEM at the largest release:
-    Housner's time for it times :data:`DEM_PERIOD_MARGIN` (rounded up to 0.5 s so similar
-    blocks share a compilation)."""
+    Housner's time for it times :data:`DEM_PERIOD_MARGIN`, rounded up to a bucket of
+    :data:`DURATION_GROWTH` (from 1 s, in whole half-seconds) so that similar blocks share a
+    compilation."""
     t_full = float(free_rocking_period(block.p, block.eta, float(np.max(theta0))))
-    return math.ceil(2.0 * DEM_PERIOD_MARGIN * (n_bounces + 2) * 0.5 * t_full) / 2.0
+    need = DEM_PERIOD_MARGIN * (n_bounces + 2) * 0.5 * t_full
+    k = max(0, math.ceil(math.log(need) / math.log(DURATION_GROWTH) - 1e-9))
+    return math.ceil(2.0 * DURATION_GROWTH**k) / 2.0  # whole half-seconds
 
 
 def default_beta_max(block: Block, mode: Mode) -> float:
@@ -334,7 +343,8 @@ def housner_peaks(block, e, theta0, mode: Mode, n_bounces, duration):
         for th in theta0
     ]
     ts, thetas = [r.t for r in resps], [r.theta for r in resps]
-    return _stacked_peaks(ts, thetas, block.eta, n_bounces, mode, hysteresis(mode)), resps
+    eta = np.float64(block.eta)  # an array: one program for every block
+    return _stacked_peaks(ts, thetas, eta, n_bounces, mode, hysteresis(mode)), resps
 
 
 @persistent_jit
@@ -459,12 +469,13 @@ def build_problem(
         )
         targets = jax.device_put(np.asarray(BOUNCE_FRACTIONS) * abs(float(e_isr(block))))
     out = CalibrationProblem(
-        block=block,
+        # the geometry and the step as arrays, traced: one compile for every block of a bucket
+        block=strong_scalars(block),
         # device_put, not jnp.asarray: that would compile a copy of each array in each process
         theta0=jax.device_put(th),
         ref=ref,
         targets=targets,
-        dt=float(dt),
+        dt=jax.device_put(np.float64(dt)),
         scale=jnp.asarray(1.0, float),
         beta_cap=jnp.asarray(beta_cap),
         # a facade's gap as an array: traced, as one compile serves every gap
