@@ -231,6 +231,11 @@ one = rj.ida(blk, recs, sc, devices=jax.local_devices()[:1], **kw)
 for v in ("max_d_over_b", "max_theta_over_eta", "collapse", "status"):
     np.testing.assert_allclose(two[v].values, one[v].values, rtol=1e-12)
 assert two["collapse"].any() and not two["collapse"].all()
+kw["model"] = rj.Housner()  # its runs one after another on each device
+two = rj.ida(blk, recs, sc, **kw)
+one = rj.ida(blk, recs, sc, devices=jax.local_devices()[:1], **kw)
+for v in ("max_d_over_b", "max_theta_over_eta", "collapse", "status"):
+    np.testing.assert_allclose(two[v].values, one[v].values, rtol=1e-12)
 print("ok")
 """
 

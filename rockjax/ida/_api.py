@@ -82,10 +82,11 @@ def ida(
         progress: A progress bar over the runs (tqdm, on stderr), advanced per chunk: None
             (default) shows it when stderr is a terminal, True always (e.g. in a notebook or a
             log), False never.
-        devices: Devices to shard each chunk over (its runs split evenly, the records
-            replicated; ``jax.sharding``); default every local device. With one device the
+        devices: Devices to split each chunk over (its runs split evenly, the records
+            replicated; ``jax.shard_map``: each device runs its share as a batch of its own,
+            host CPU devices each on a core); default every local device. With one device the
             chunks run as they are. The chunk size is rounded up to a multiple of the device
-            count. Results do not depend on it (tests/test_ida.py).
+            count. Results do not depend on it beyond round-off (tests/test_ida.py).
         wall_motion: One-sided only: a :class:`rockjax.ShearBuilding` whose response to each
             scaled record moves the facade's return walls (``wall_motion=`` of the
             simulators; taken at the block's height, or an assembly's whole height); its

@@ -118,21 +118,26 @@ def make_plan(
 
 
 class Placement(NamedTuple):
-    """Puts a chunk's per-run arrays split over the devices and the records on every one."""
+    """Puts a chunk's per-run arrays split over the devices and the records on every one;
+    ``mesh``: the devices' mesh (axis ``"run"``), None for one device."""
 
     split: object
     replicated: object
+    mesh: jax.sharding.Mesh | None = None
 
 
 def placement_on(devices) -> Placement:
     if len(devices) == 1:
         return Placement(split=lambda x: x, replicated=lambda x: x)
-    mesh = jax.sharding.Mesh(np.asarray(devices), ("run",))
+    mesh = jax.sharding.Mesh(
+        np.asarray(devices), ("run",), axis_types=(jax.sharding.AxisType.Auto,)
+    )
     runs = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("run"))
     every = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
     return Placement(
         split=lambda x: jax.device_put(x, runs),
         replicated=lambda x: None if x is None else jax.device_put(x, every),
+        mesh=mesh,
     )
 
 

@@ -89,7 +89,9 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
         steps = max(1, math.ceil(g.dt / plan.config["dt_bound"] - 1e-9))
         dt_bound = g.dt / steps if model.rigid else np.asarray(g.dt / steps)
         chunk = (block, ag, ag_v, rec_k, scale_k, wall, support)
-        out = run_chunk(*chunk, model=model, mode=mode, dt_rec=g.dt, dt_bound=dt_bound)
+        out = run_chunk(
+            *chunk, model=model, mode=mode, dt_rec=g.dt, dt_bound=dt_bound, mesh=place.mesh
+        )
         out = jax.device_get(out)
         if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
             grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
@@ -145,12 +147,31 @@ def run_chunk(
     mode,
     dt_rec,
     dt_bound,
+    mesh=None,
 ):
     """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (batched) with the
     ``model`` object; ``wall``: None, or the return wall's ``(u_top, v_top)`` per record at
     scale 1, scaled likewise; ``support``: None, or an assembly's base acceleration (and top
     restraint's ``(u, v)``) per record at scale 1 (:func:`support_histories`), scaled
-    likewise."""
+    likewise. ``mesh``: the devices the runs are split over (``shard_map``: each device runs
+    its share as a batch of its own, on its own core), or None."""
+    if mesh is not None:
+        spec, every = jax.sharding.PartitionSpec("run"), jax.sharding.PartitionSpec()
+
+        def share(block, ag, ag_v, rec_idx, scale, wall, support):
+            return run_chunk(
+                block, ag, ag_v, rec_idx, scale, wall, support,
+                model=model, mode=mode, dt_rec=dt_rec, dt_bound=dt_bound,
+            )  # fmt: skip
+
+        # (the scan's initial carries are not marked as varying over the devices: unchecked)
+        return jax.shard_map(
+            share,
+            mesh=mesh,
+            in_specs=(every, every, every, spec, spec, every, every),
+            out_specs=spec,
+            check_vma=False,
+        )(block, ag, ag_v, rec_idx, scale, wall, support)
 
     def one(i, s):
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
