@@ -6,8 +6,8 @@ runs of a 2 s record (0.25 x 3 m).
     python benchmarks/bench_cpu_time.py
     PYTHONPATH=<another checkout> python benchmarks/bench_cpu_time.py   # that code, alike
 
-Run both, alternated, to compare two versions of the code side by side (the figures quoted
-in the closing notes of the one-kernel change: single history, batch).
+Run both, alternated, to compare two versions of the code side by side (docs/benchmarks.md,
+"One kernel for a block and an assembly": single history, batch).
 """
 
 from __future__ import annotations

@@ -39,6 +39,7 @@ import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+import jax
 import numpy as np
 
 from . import jsonio
@@ -563,8 +564,8 @@ def _run_part(case: Case, recs, size, scales, t_end, fingerprint, key, path):
         model=case.model,
         mode=case.rocking(),
         t_end=t_end,
-        chunk_size=size * len(scales),
         progress=False,
+        devices=jax.local_devices()[:1],  # one worker per core: its part on one device
     )
     ds = ds.isel(record=slice(0, n_real))
     ds.attrs.update(

@@ -873,7 +873,7 @@ IDA_CASES = [
     _case("im-malformed", lambda: _ida(im="sa(x)"), r"\bim\b", r"sa\(0\.5\)"),
     _case("im-unknown", lambda: _ida(im="pgd"), r"\bim\b", r"sa\(0\.5\)"),
     _case("im-sa0", lambda: _ida(im="sa(0)"), r"\bim\b", r"im='pga'"),
-    _case("chunk_size-0", lambda: _ida(chunk_size=0), r"\bchunk_size\b", r"256"),
+    _case("chunk_size-0", lambda: _ida(chunk_size=0), r"\bchunk_size\b", r"None"),
     _case("tail-negative", lambda: _ida(tail=-1.0), r"\btail\b", r">= 0|e\.g\."),
     _case("tail-nan", lambda: _ida(tail=NAN), r"\btail\b", r">= 0|e\.g\."),
     _case("records-empty", lambda: _ida(records=()), r"\brecords\b", r"GroundMotion"),

@@ -87,7 +87,11 @@ def add_ida_parser(sub) -> None:
         "--tail", type=float, default=2.0, metavar="S", help="free vibration after records [s]"
     )
     p.add_argument(
-        "--chunk-size", type=int, default=256, metavar="N", help="runs per compiled batch"
+        "--chunk-size",
+        type=int,
+        default=None,
+        metavar="N",
+        help="runs per compiled batch (default 64 per device)",
     )
     p.add_argument(
         "--im",
@@ -212,7 +216,7 @@ def _ida(args: argparse.Namespace) -> int:
     from ..records import load as load_records
 
     t_start = time.perf_counter()
-    if args.chunk_size < 1:
+    if args.chunk_size is not None and args.chunk_size < 1:
         raise ValueError(f"--chunk-size must be an integer >= 1; got {args.chunk_size}.")
     out = Path(args.out)
     if out.is_dir():
@@ -362,4 +366,6 @@ def _ida_argv(args: argparse.Namespace) -> list[str]:
         parts.append("--normalized")
     parts += ["--gap", f"{args.gap:g}", "--tail", f"{args.tail:g}", "--im", args.im]
     parts += ["--figure-format", args.figure_format]
-    return parts + ["--chunk-size", str(args.chunk_size), "--out", str(args.out)]
+    if args.chunk_size is not None:
+        parts += ["--chunk-size", str(args.chunk_size)]
+    return parts + ["--out", str(args.out)]

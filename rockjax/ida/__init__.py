@@ -8,7 +8,7 @@ has its return walls driven by the building's response to each scaled record; a 
 several blocks in a building (an :class:`rockjax.Assembly` with ``support_motion=`` a building
 and ``storey=``) stands on its floor and is held by the floor above. The building is linear:
 its response is solved once per record and scaled with the record in every run. The pairs are
-flattened and run in chunks of ``chunk_size``: one compiled batch per chunk from a Python
+flattened and run in chunks of ``chunk_size`` (default :data:`CHUNK_PER_DEVICE` per device): one compiled batch per chunk from a Python
 loop, which bounds the memory and lets a progress bar advance between chunks (DEM runs are
 vmapped; Housner runs go through :func:`rockjax.housner.batch_runs`, one after another on
 CPU). The last chunk is padded (with
@@ -56,3 +56,4 @@ from ._config import MODES as MODES
 from ._config import run_config as run_config
 from ._intervals import CollapseIntervals as CollapseIntervals
 from ._intervals import collapse_intervals as collapse_intervals
+from ._plan import CHUNK_PER_DEVICE as CHUNK_PER_DEVICE

@@ -34,7 +34,7 @@ def ida(
     im: str = "pga",
     tail: ScalarLike = 2.0,
     t_end: ScalarLike | None = None,
-    chunk_size: int = 256,
+    chunk_size: int | None = None,
     progress: bool | None = None,
     devices: Sequence[jax.Device] | None = None,
     wall_motion: ShearBuilding | None = None,
@@ -77,8 +77,9 @@ def ida(
         t_end: Length of every run [s]; default the longest record + ``tail``. Give it to make
             a subset of a record set run exactly as in a call on the whole set (a campaign's
             parts, :mod:`rockjax.campaign`); it must not cut a record short.
-        chunk_size: Runs per compiled batch; bounds the memory (about
-            ``chunk_size * n_time * 8`` bytes per saved series), not the results.
+        chunk_size: Runs per compiled batch (split over ``devices``); default 64 per device
+            (``rockjax.ida.CHUNK_PER_DEVICE``, the fastest measured). It bounds the memory
+            (about ``chunk_size * n_time * 8`` bytes per saved series), not the results.
         progress: A progress bar over the runs (tqdm, on stderr), advanced per chunk: None
             (default) shows it when stderr is a terminal, True always (e.g. in a notebook or a
             log), False never.
