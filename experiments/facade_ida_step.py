@@ -7,14 +7,15 @@ study runs the FEMA P695 far-field set (44 components, each normalised to PGA = 
 PGAs (0.05-2 g, geometric) on the 0.2 x 1.5 m block with a 1 mm gap (``rj.Facade(gap=0.001)``) at its calibrated ``beta``:
 
 1. **Cost**: the same IDA as a parapet, as a facade at the default step, and with Housner,
-   each timed on its second call (warm: compiled).
+   each timed on its second call (warm: compiled); the two DEM IDAs again in chunks of 256
+   runs (the former default of ``chunk_size``).
 2. **Step**: the facade IDA at ``accuracy`` 0.35 (the default), 0.7 and 1.0 against a
    reference at 0.175 (half the default step): the share of runs whose collapse flag agrees,
    and the error of the peak ``d/b`` of the runs that stand in both, relative to the
    reference's (median, 95th percentile, largest), over the runs that rock (reference
    ``d/b >= 0.01``).
 
-    python experiments/facade_ida_step.py [--out experiments/results/facade_ida_step]
+    python experiments/facade_ida_step.py [--out experiments/results/facade_ida_step] [--cost]
 
 ``beta`` is fitted once (``rj.fit_beta(block, mode=rj.Facade(gap=0.001))``, the facade's
 default target: its bounces) and kept in ``beta.json``. Writes ``summary.json`` and prints the
@@ -59,9 +60,9 @@ def beta_of(out: pathlib.Path, mode) -> float:
     return float(fit.beta)
 
 
-def ida(recs, scales, model, mode):
+def ida(recs, scales, model, mode, chunk_size=None):
     t0 = time.perf_counter()
-    ds = rj.ida(BLOCK, recs, scales, model=model, mode=mode, progress=False)
+    ds = rj.ida(BLOCK, recs, scales, model=model, mode=mode, chunk_size=chunk_size, progress=False)
     return ds, time.perf_counter() - t0
 
 
@@ -86,6 +87,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="experiments/results/facade_ida_step")
     ap.add_argument("--quick", action="store_true", help="4 components x 5 scales (a smoke run)")
+    ap.add_argument("--cost", action="store_true", help="part 1 only (the cost)")
     args = ap.parse_args()
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -101,18 +103,24 @@ def main() -> None:
 
     # 1. cost, warm
     cost = {}
-    for name, model, mode in (
-        ("parapet DEM", rj.DEM(beta=beta), rj.Parapet()),
-        ("facade DEM", rj.DEM(beta=beta), facade),
-        ("facade Housner", rj.Housner(), facade.without_gap()),  # rigid: flush on its walls
+    for name, model, mode, chunk in (
+        ("parapet DEM", rj.DEM(beta=beta), rj.Parapet(), None),
+        ("facade DEM", rj.DEM(beta=beta), facade, None),
+        ("facade Housner", rj.Housner(), facade.without_gap(), None),  # flush on its walls
+        # the former default chunk, side by side
+        ("parapet DEM, chunks of 256", rj.DEM(beta=beta), rj.Parapet(), 256),
+        ("facade DEM, chunks of 256", rj.DEM(beta=beta), facade, 256),
     ):
-        _, first = ida(recs, scales, model, mode)
-        _, warm = ida(recs, scales, model, mode)
+        _, first = ida(recs, scales, model, mode, chunk)
+        _, warm = ida(recs, scales, model, mode, chunk)
         cost[name] = {"first_s": first, "warm_s": warm}
-        print(f"  {name:<15} first call {first:7.1f} s, warm {warm:7.1f} s", flush=True)
+        print(f"  {name:<26} first call {first:7.1f} s, warm {warm:7.1f} s", flush=True)
     ratio = cost["facade DEM"]["warm_s"] / cost["parapet DEM"]["warm_s"]
     print(f"  facade / parapet (warm): {ratio:.2f}x", flush=True)
     summary["cost"] = cost
+    if args.cost:
+        print(f"load at end {load()}")
+        return
 
     # 2. the step the IDA's outputs need
     ref, t_ref = ida(recs, scales, rj.DEM(beta=beta, accuracy=REFERENCE_ACCURACY), facade)
