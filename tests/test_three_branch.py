@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from scipy.integrate import quad, solve_ivp
+from scipy.optimize import brentq
 
 import rockjax as rj
 from rockjax.constants import G
@@ -167,6 +168,31 @@ def test_uplift_from_rest_at_the_plateau_threshold(block, factor, lifts):
     assert (float(resp.theta_max) > 1e-6) == lifts
     if not lifts:
         assert float(np.max(np.abs(np.asarray(resp.theta)))) == 0.0
+
+
+# The rest rule gives up motions below REST_HOP eta (docs/theory.md, "Housner rest and chatter
+# rule"), its documented value.
+REST_HOP_ETA = 1e-6
+
+
+@pytest.mark.parametrize("factor, lifts", [(0.5, False), (2.0, True)])
+def test_lift_off_on_a_stiff_branch_needs_a_deflection_above_the_rest_rules_size(
+    block, law, factor, lifts
+):
+    """From rest on a stiff first branch a constant forcing lifts the block only if its static
+    deflection of the branch, from the law's closed form here, exceeds 1e-6 eta; the block
+    then swings to about twice it (a step load on a spring)."""
+    eta = float(block.eta)
+    u_target = REST_HOP_ETA * eta  # the static rotation to reach
+    x = brentq(lambda x: _u_of(x, eta) - u_target, 0.0, 0.5 * float(law.Delta_1))
+    a_static = float(_lam(x, *_params(law))) * G  # the forcing that holds it there [m/s^2]
+    motion = rj.GroundMotion(ag=np.full(201, -factor * a_static), dt=0.01)
+    resp = rj.simulate_housner(block, motion, mode="one_sided", law=law)
+    theta_max = float(resp.theta_max)
+    if lifts:
+        assert 1.5 * factor * u_target < theta_max < 2.5 * factor * u_target
+    else:
+        assert theta_max == 0.0
 
 
 @pytest.mark.parametrize("offset, overturns", [(-2e-3, False), (2e-3, True)])

@@ -7,6 +7,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from ..constants import G
 from ._field import restoring, wall_excess
 from ._lax import clip, safe, where
 from ._params import REST_A_MARGIN, REST_HOP, REST_HORIZON, Params
@@ -58,11 +59,13 @@ def find_uplift(ta, t1, line: Line | None, params: Params, one_sided: bool, exce
         return ((fa > 0) | (fb > 0)) & ~micro, t
 
     if excess is not None:
-        lifts_pos, t_pos = first_positive(*excess)
+        # the excess is over the law's threshold lam_up; lift-off needs lam_lift (make_params)
+        shift = (params.lam_lift - params.lam_up) * G
+        lifts_pos, t_pos = first_positive(excess[0] - shift, excess[1] - shift)
         return lifts_pos, t_pos, jnp.ones_like(ta)
     a_a, g_a = line.at(ta)
     a_b, g_b = line.at(t1)
-    tan_eta = params.lam_up  # tan(eta) for the rigid block; the law's threshold otherwise
+    tan_eta = params.lam_lift  # tan(eta) for the rigid block; the law's threshold otherwise
     lifts_pos, t_pos = first_positive(-a_a - tan_eta * g_a, -a_b - tan_eta * g_b)
     if one_sided:
         return lifts_pos, t_pos, jnp.ones_like(ta)

@@ -55,6 +55,7 @@ class Params(eqx.Module):
     e: Array  # restitution magnitude [-]
     theta_u: Array  # rotation [rad] past which the block overturns (eta for the rigid block)
     lam_up: Array  # static uplift threshold |a_g| / g_eff [-] at rest (tan eta, rigid block)
+    lam_lift: Array  # |a_g| / g_eff [-] that lifts a block at rest (lam_up, or see make_params)
     w2_tiny: Array  # rebound speed^2 [rad^2/s^2] below which the rest rule's 2nd clause rests
     law: LawTerms | None  # the three-branch law's restoring terms; None: the rigid block
 
@@ -93,6 +94,7 @@ def make_params(p, eta, e, law) -> Params:
             e=e,
             theta_u=eta,
             lam_up=tan_eta,
+            lam_lift=tan_eta,
             w2_tiny=w2_tiny,
             law=None,
         )
@@ -122,6 +124,12 @@ def make_params(p, eta, e, law) -> Params:
     # (k g lam_up) or, on a stiff first branch (lam_up = 0), from its frequency (k g lam_p / u1).
     w2_hop = 2.0 * REST_HOP * eta * k * G * lam_up
     w2_spring = (REST_HOP * eta) ** 2 * k * G * lam_p / where(has_first, terms.u1, 1.0)
+    # Lift-off from rest on a stiff first branch (threshold 0): only a forcing whose static
+    # deflection of the branch, u1 a_g / (g lam_p), exceeds REST_HOP eta, the motion the rest
+    # rule's second clause gives up. Any smaller forcing would lift a block put to rest at once
+    # into a flight below that size, to be put to rest again: a chatter at round-off amplitude,
+    # hundreds of impacts a step (docs/theory.md, "Housner rest and chatter rule").
+    lam_micro = REST_HOP * eta * lam_p / where(has_first, terms.u1, 1.0)
     return Params(
         p2_over_g=p2_over_g,
         sin_eta=sin_eta,
@@ -131,6 +139,7 @@ def make_params(p, eta, e, law) -> Params:
         e=e,
         theta_u=rotation(du),
         lam_up=lam_up,
+        lam_lift=where(has_first, lam_micro, lam_up),
         w2_tiny=where(has_first, w2_spring, w2_hop),
         law=terms,
     )
