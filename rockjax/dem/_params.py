@@ -127,20 +127,23 @@ class DemState(eqx.Module):
     ``|theta|``); ``fs``: per interface, the shear spring force(s) [N] (one per face with the
     integrated face law, one per sub-contact with integer ``n_sub``); ``fs_wall``: those of
     each block's back face on the return wall (empty without return walls); ``d_max``: the
-    running max of each block's top displacement ``|x - x0 + (h/2) sin(theta)|`` [m]."""
+    running max of each block's top displacement ``|x - x0 + (h/2) sin(theta)|`` [m].
 
-    x: tuple
-    y: tuple
-    c: tuple
-    s: tuple
-    vx: tuple
-    vy: tuple
-    w: tuple
-    theta: tuple
-    theta_max: tuple
-    fs: tuple
-    fs_wall: tuple = ()
-    d_max: tuple = ()
+    A stack in the array layout (:func:`stacked`) holds each per-block field as an array of
+    shape ``(n,)`` instead, and ``fs``, ``fs_wall`` as arrays ``(faces, n_fs)``."""
+
+    x: tuple | jax.Array
+    y: tuple | jax.Array
+    c: tuple | jax.Array
+    s: tuple | jax.Array
+    vx: tuple | jax.Array
+    vy: tuple | jax.Array
+    w: tuple | jax.Array
+    theta: tuple | jax.Array
+    theta_max: tuple | jax.Array
+    fs: tuple | jax.Array
+    fs_wall: tuple | jax.Array = ()
+    d_max: tuple | jax.Array = ()
 
 
 def as_assembly(body: Block | Assembly) -> Assembly:
@@ -322,13 +325,13 @@ def stack_params(assembly: Assembly, beta, gap, phi_deg, *, one_sided: bool, joi
     )
 
 
-def span(p: DemParams, k: int, wall: bool = False):
+def span(p: DemParams, k: int | jax.Array, wall: bool = False):
     """The face coordinates ``(lo, hi)`` [m] of interface ``k``'s face, or with ``wall`` of
     block ``k``'s back face on the return wall (``t`` up the face from its centre)."""
     return (-0.5 * p.h[k], 0.5 * p.h[k]) if wall else (p.lo[k], p.hi[k])
 
 
-def springs(p: DemParams, k: int, wall: bool = False):
+def springs(p: DemParams, k: int | jax.Array, wall: bool = False):
     """The springs of interface ``k`` (or of block ``k``'s back face on the return wall) for
     the all-closed stiffness: positions ``t`` along the face [m] and the normal and shear
     stiffnesses [N/m] (the two-point Gauss rule of the face for the integrated law: it gives
