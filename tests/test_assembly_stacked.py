@@ -122,13 +122,9 @@ def _equations(jaxpr) -> int:
     return count
 
 
-PROGRAM_GROWTH = 1.5
-"""Largest ratio of the traced run's size (equations, what XLA compiles) at 160 blocks to
-that at 20: only the solve's levels of cyclic reduction grow, one per doubling (the unrolled
-layout's program grows with the blocks: 8x)."""
-
-
-def test_stacked_program_hardly_grows_with_the_stack():
+def test_stacked_program_does_not_grow_with_the_stack():
+    # the traced run (what XLA compiles) is the same program for 20 and 160 blocks: one copy
+    # of each joint, of the solve's elimination and of the collapse rule
     sizes = []
     gm = rj.GroundMotion.sine_cycle(pga=1.0, period=0.25, dt=DT_OUT, duration=0.1)
     for n in (20, 160):
@@ -141,7 +137,7 @@ def test_stacked_program_hardly_grows_with_the_stack():
             return dem.run(p, st0, ag, ag, 1e-4, DT_OUT, 100, ("energy", "forces"))
 
         sizes.append(_equations(jax.make_jaxpr(f)(p, st0, ag).jaxpr))
-    assert sizes[1] <= PROGRAM_GROWTH * sizes[0], sizes
+    assert sizes[0] == sizes[1], sizes
 
 
 def test_grad_through_a_tall_stack_matches_finite_differences():

@@ -146,6 +146,41 @@ class DemState(eqx.Module):
     d_max: tuple | jax.Array = ()
 
 
+STATE_FIELDS = ("x", "y", "c", "s", "vx", "vy", "w", "theta", "theta_max")
+"""The state's per-block fields that a step advances."""
+
+
+def as_arrays(st: DemState) -> DemState:
+    """The state with its per-block fields as arrays ``(n,)`` and each face's shear springs
+    as rows of an array ``(faces, n_fs)`` (the layout's state)."""
+
+    if not isinstance(st.x, tuple):
+        return st
+
+    def rows(faces):
+        return jnp.stack([jnp.stack(f) for f in faces]) if faces else ()
+
+    fields = {f: jnp.stack(getattr(st, f)) for f in STATE_FIELDS}
+    d_max = jnp.stack(st.d_max) if st.d_max else ()
+    return DemState(**fields, fs=rows(st.fs), fs_wall=rows(st.fs_wall), d_max=d_max)
+
+
+def as_tuples(st: DemState) -> DemState:
+    """The state in the unrolled layout (one scalar per block in each field), from either."""
+    if isinstance(st.x, tuple):
+        return st
+
+    def scalars(a):
+        return tuple(a[k] for k in range(a.shape[0]))
+
+    def rows(faces):
+        return tuple(scalars(row) for row in faces) if len(faces) else ()
+
+    fields = {f: scalars(getattr(st, f)) for f in STATE_FIELDS}
+    d_max = scalars(st.d_max) if len(st.d_max) else ()
+    return DemState(**fields, fs=rows(st.fs), fs_wall=rows(st.fs_wall), d_max=d_max)
+
+
 def as_assembly(body: Block | Assembly) -> Assembly:
     """A block as the assembly of one it is (an assembly unchanged); else a ValueError."""
     check_kind(

@@ -35,9 +35,9 @@ from ..response import (
     STATUS_UNSTABLE,
     Response,
 )
-from ._params import DemParams, DemState, omega_max, stacked
+from ._params import DemParams, DemState, as_arrays, as_tuples, omega_max, stacked
 from ._response import AssemblyResponse, block_response
-from ._stacked import as_arrays, as_tuples, collapsed_stacked, energy_stacked, step_stacked
+from ._stacked import collapsed_stacked, energy_stacked, step_stacked
 from ._step import collapsed, energy, step
 
 SCAN_CHUNK = 256

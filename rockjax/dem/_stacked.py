@@ -8,7 +8,7 @@ instead: the ground joint is :func:`rockjax.dem._faces.interface` on the stack i
 joints are the same function mapped (``jax.vmap``) over the ``n - 1`` two-block views of the
 stack (lower block ``k - 1``, upper block ``k``, the joint's own face fields); the back faces
 on return walls are mapped over the blocks; the block-tridiagonal system ``(M + dt/2 C) a = F``
-is solved by block cyclic reduction (``log2 n`` levels of array operations). The state's per-block
+is solved by block elimination in a ``lax.scan`` over the blocks. The state's per-block
 fields are arrays of shape ``(n,)`` here (the shear springs ``(n, n_fs)``), so the program
 holds one copy of each joint, whatever the height of the stack. The two layouts give the same
 history to round-off (tests/test_assembly_stacked.py).
@@ -23,11 +23,10 @@ import jax.numpy as jnp
 
 from .._fusion import computed_once
 from ..constants import G
-from ._algebra import inv3, mm, mv, solve_tridiagonal
+from ._algebra import inv3, mm, mv, transpose
 from ._faces import face_energy, interface, pair_kinematics, wall_kinematics
-from ._params import DemParams, DemState, span
+from ._params import STATE_FIELDS, DemParams, DemState, span
 from ._step import (
-    STATE_FIELDS,
     advance,
     beyond_end,
     slid_off,
@@ -36,44 +35,9 @@ from ._step import (
     turned_off,
 )
 
-CR_DIRECT = 4
-"""Cyclic reduction stops at this many rows and eliminates them as scalars (each level is
-about ten XLA computations; a few rows' elimination is one)."""
-
 BLOCK_FIELDS = ("m", "I_c", "b", "h", "eta", "x0", "y0")
 LINK_FIELDS = ("lo", "hi", "kn_line", "ks_line")
 BED = ((1, 0, "bed"),)  # a two-block view's one joint: block 1 on block 0
-
-
-def as_arrays(st: DemState) -> DemState:
-    """The state with its per-block fields as arrays ``(n,)`` and each face's shear springs
-    as rows of an array ``(faces, n_fs)`` (the layout's state)."""
-
-    if not isinstance(st.x, tuple):
-        return st
-
-    def rows(faces):
-        return jnp.stack([jnp.stack(f) for f in faces]) if faces else ()
-
-    fields = {f: jnp.stack(getattr(st, f)) for f in STATE_FIELDS}
-    d_max = jnp.stack(st.d_max) if st.d_max else ()
-    return DemState(**fields, fs=rows(st.fs), fs_wall=rows(st.fs_wall), d_max=d_max)
-
-
-def as_tuples(st: DemState) -> DemState:
-    """The state in the unrolled layout (one scalar per block in each field), from either."""
-    if isinstance(st.x, tuple):
-        return st
-
-    def scalars(a):
-        return tuple(a[k] for k in range(a.shape[0]))
-
-    def rows(faces):
-        return tuple(scalars(row) for row in faces) if len(faces) else ()
-
-    fields = {f: scalars(getattr(st, f)) for f in STATE_FIELDS}
-    d_max = scalars(st.d_max) if len(st.d_max) else ()
-    return DemState(**fields, fs=rows(st.fs), fs_wall=rows(st.fs_wall), d_max=d_max)
 
 
 def matrix(m):
@@ -183,100 +147,50 @@ def step_stacked(
     return out, acc, power, forces
 
 
-def entries(a):
-    """The 3 x 3 entries of an array ``(..., 3, 3)`` as nested lists of arrays ``(...)``."""
-    return [[a[..., i, j] for j in range(3)] for i in range(3)]
-
-
 def solve_chain(diag, lower, rhs):
-    """:func:`rockjax.dem._algebra.solve_tridiagonal`'s system in arrays: ``diag``
-    ``(n, 3, 3)``, ``lower`` ``(n - 1, 3, 3)`` (``A[k, k-1]`` of ``k = 1..n-1``; the matrix is
-    symmetric, ``A[k-1, k] = lower^T``), ``rhs`` ``(n, 3)``; by block cyclic reduction
-    (:func:`cyclic_reduction`: ``log2 n`` levels of array operations; a block elimination in
-    a ``lax.scan`` over the blocks ran 15 % slower, 90 against 78 ns a block at ten blocks).
-    Returns ``x`` ``(n, 3)``."""
+    """:func:`rockjax.dem._algebra.solve_tridiagonal`'s system in arrays, by the same block
+    elimination as a ``lax.scan`` over the blocks (forward, then back): ``diag``
+    ``(n, 3, 3)``, ``lower`` ``(n - 1, 3, 3)`` (``A[k, k-1]`` of ``k = 1..n-1``; symmetric,
+    ``A[k-1, k] = lower^T``), ``rhs`` ``(n, 3)``; returns ``x`` ``(n, 3)``. One copy of a
+    block's elimination in the program whatever ``n``; XLA:CPU runs each scan as one loop of
+    scalar arithmetic (docs/assemblies.md, "Performance": block cyclic reduction, ``log2 n``
+    levels of array operations, ran as fast in one history, 2.4 times slower in a batch of 16
+    fifty-block stacks, and compiled slower)."""
     # built from every joint's forces and dashpots, and read by many entries: computed once
     (diag,), (lower,), (rhs,) = computed_once(diag), computed_once(lower), computed_once(rhs)
-    zero = jnp.zeros((1, 3, 3))
-    low = entries(jnp.concatenate([zero, lower]))
-    up = entries(jnp.concatenate([jnp.swapaxes(lower, -1, -2), zero]))
-    x = cyclic_reduction(entries(diag), low, up, [rhs[:, i] for i in range(3)])
-    return jnp.stack(x, axis=-1)
 
+    def lists(a):
+        return [[a[i, j] for j in range(3)] for i in range(3)]
 
-def part(m, sl):
-    """The rows ``sl`` of a 3 x 3 block array kept entry by entry (nested lists of arrays)."""
-    return [[v[sl] for v in row] for row in m]
+    def arr(m):
+        return jnp.stack([jnp.stack(row) for row in m])
 
+    def forward(carry, x):
+        inv_prev, g_prev = carry
+        d, low, r = x
+        lk = lists(low)
+        li = mm(lk, lists(inv_prev))
+        corr = mm(li, transpose(lk))
+        dk = [[d[i, j] - corr[i][j] for j in range(3)] for i in range(3)]
+        g = mv(li, [g_prev[i] for i in range(3)])
+        g = jnp.stack([r[i] - g[i] for i in range(3)])
+        inv_k = arr(inv3(dk))
+        return (inv_k, g), (inv_k, g)
 
-def once(m):
-    """A 3 x 3 block array (nested lists of arrays of one shape) computed once."""
-    flat = computed_once(*(v for row in m for v in row))
-    return [list(flat[3 * i : 3 * i + 3]) for i in range(3)]
+    inv0 = arr(inv3(lists(diag[0])))
+    _, (invs, gs) = jax.lax.scan(forward, (inv0, rhs[0]), (diag[1:], lower, rhs[1:]))
+    invs = jnp.concatenate([inv0[None], invs])
+    gs = jnp.concatenate([rhs[0][None], gs])
+    last = jnp.stack(mv(lists(invs[-1]), [gs[-1][i] for i in range(3)]))
 
+    def backward(x_next, y):
+        inv_k, g_k, low_next = y
+        u = mv(transpose(lists(low_next)), [x_next[i] for i in range(3)])
+        x_k = jnp.stack(mv(lists(inv_k), [g_k[i] - u[i] for i in range(3)]))
+        return x_k, x_k
 
-def minus(a, b):
-    return [[a[i][j] - b[i][j] for j in range(3)] for i in range(3)]
-
-
-def negated(a):
-    return [[-v for v in row] for row in a]
-
-
-def cyclic_reduction(d, low, up, r):
-    """Solve the block-tridiagonal system ``low[k] x[k-1] + d[k] x[k] + up[k] x[k+1] =
-    r[k]`` (``low[0] = up[-1] = 0``; 3 x 3 blocks) by block cyclic reduction: the even rows
-    are eliminated from the odd ones, the half-size system of the odd rows is solved the same
-    way, and the even rows follow from it. Symmetric positive definite systems (``M + dt/2
-    C``) need no pivoting: this is Gaussian elimination in another order of the unknowns.
-
-    The blocks are kept entry by entry, each entry an array over the rows (nested lists of
-    arrays ``(m,)``; ``r`` a list of three), so that every operation is an elementwise one on
-    contiguous arrays."""
-    m = r[0].shape[0]
-    if m <= CR_DIRECT:  # a few rows: eliminated as scalars, one computation
-        rows = [[[[v[k] for v in row] for row in a] for a in (d, low)] for k in range(m)]
-        x = solve_tridiagonal(
-            [q[0] for q in rows], [q[1] for q in rows], [[v[k] for v in r] for k in range(m)]
-        )
-        return [jnp.stack([x[k][i] for k in range(m)]) for i in range(3)]
-    if m % 2 == 0:  # one decoupled row (x = 0) makes the count odd
-
-        def pad(v, value=0.0):
-            return jnp.concatenate([v, jnp.full((1,), value)])
-
-        d = [[pad(d[i][j], float(i == j)) for j in range(3)] for i in range(3)]
-        low, up = ([[pad(v) for v in row] for row in a] for a in (low, up))
-        return [x[:m] for x in cyclic_reduction(d, low, up, [pad(v) for v in r])]
-    even, odd = slice(0, None, 2), slice(1, None, 2)
-    head, tail = slice(None, -1), slice(1, None)
-    # each of these is read by several entries of the next products: computed once
-    inv_e = once(inv3(part(d, even)))  # the even rows' pivots
-    low_e, up_e, r_e = part(low, even), part(up, even), [v[even] for v in r]
-    # odd row k: its neighbours k - 1 and k + 1 are even
-    left = once(mm(part(low, odd), part(inv_e, head)))
-    right = once(mm(part(up, odd), part(inv_e, tail)))
-    d_o = minus(minus(part(d, odd), mm(left, part(up_e, head))), mm(right, part(low_e, tail)))
-    low_o = negated(mm(left, part(low_e, head)))
-    up_o = negated(mm(right, part(up_e, tail)))
-    u = mv(left, [v[head] for v in r_e])
-    w = mv(right, [v[tail] for v in r_e])
-    r_o = [r[i][odd] - u[i] - w[i] for i in range(3)]
-    # (the next level reads each entry of these many times: computed once, or XLA:CPU
-    # would copy each level's arithmetic into every reader of the next)
-    d_o, low_o, up_o = once(d_o), once(low_o), once(up_o)
-    r_o = list(computed_once(*r_o))
-    x_o = list(computed_once(*cyclic_reduction(d_o, low_o, up_o, r_o)))
-    edge = jnp.zeros((1,))
-    x_pad = [jnp.concatenate([edge, v, edge]) for v in x_o]
-    u = mv(low_e, [v[head] for v in x_pad])
-    w = mv(up_e, [v[tail] for v in x_pad])
-    x_e = mv(inv_e, [r_e[i] - u[i] - w[i] for i in range(3)])
-    # interleave: even rows 0, 2, ..., odd rows 1, 3, ...
-    return [
-        jnp.concatenate([jnp.stack([x_e[i][:-1], x_o[i]], axis=-1).reshape(m - 1), x_e[i][-1:]])
-        for i in range(3)
-    ]
+    _, xs = jax.lax.scan(backward, last, (invs[:-1], gs[:-1], lower), reverse=True)
+    return jnp.concatenate([xs, last[None]])
 
 
 def energy_stacked(p: DemParams, st: DemState, vel, wall=None):

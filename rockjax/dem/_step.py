@@ -21,7 +21,7 @@ from ..constants import G
 from ..contact import normal_force
 from ._algebra import LDL_BATCH_MAX_BLOCKS, add, mul, plus, scale, solve_ldl, solve_tridiagonal
 from ._faces import face_ends, face_energy, interface
-from ._params import DemParams, DemState, span
+from ._params import STATE_FIELDS, DemParams, DemState, as_arrays, as_tuples, span
 
 
 def top(p: DemParams, st: DemState, dt, top_motion=None):
@@ -77,7 +77,9 @@ def step(
 
     Args:
         p: The parameters (:func:`rockjax.dem.dem_params`).
-        st: The state at step ``n`` (velocities at ``n - 1/2``).
+        st: The state at step ``n`` (velocities at ``n - 1/2``), in either layout (one in
+            the array layout of a tall stack, :class:`rockjax.dem.DemState`, is stepped as
+            its scalars and returned in its layout).
         ag: Horizontal acceleration of the base [m/s^2] (the frame of the run).
         ag_v: Vertical acceleration of the base [m/s^2].
         dt: Time step [s].
@@ -102,6 +104,12 @@ def step(
         horizontal force on the top block, or None) and ``wall`` (each back face's normal
         force, or None).
     """
+    if not isinstance(st.x, tuple):  # a state in the array layout: stepped as its scalars
+        new, acc, power, forces = step(
+            p, as_tuples(st), ag, ag_v, dt, load=load, top_motion=top_motion, wall=wall,
+            one_history=one_history,
+        )  # fmt: skip
+        return as_arrays(new), acc, power, forces
     ldl = one_history or p.n <= LDL_BATCH_MAX_BLOCKS
     n = p.n
     force = [[0.0, 0.0, 0.0] for _ in range(n)]
@@ -174,10 +182,6 @@ def step(
         wall=fn_wall if p.one_sided else None,
     )
     return out, acc, power, forces
-
-
-STATE_FIELDS = ("x", "y", "c", "s", "vx", "vy", "w", "theta", "theta_max")
-"""The state's per-block fields that a step advances."""
 
 
 def advance(x, y, c, s, vx, vy, w, theta, theta_max, ax, ay, aw, dt) -> dict:
