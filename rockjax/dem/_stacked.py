@@ -151,46 +151,56 @@ def solve_chain(diag, lower, rhs):
     """:func:`rockjax.dem._algebra.solve_tridiagonal`'s system in arrays, by the same block
     elimination as a ``lax.scan`` over the blocks (forward, then back): ``diag``
     ``(n, 3, 3)``, ``lower`` ``(n - 1, 3, 3)`` (``A[k, k-1]`` of ``k = 1..n-1``; symmetric,
-    ``A[k-1, k] = lower^T``), ``rhs`` ``(n, 3)``; returns ``x`` ``(n, 3)``. One copy of a
-    block's elimination in the program whatever ``n``; XLA:CPU runs each scan as one loop of
-    scalar arithmetic (docs/assemblies.md, "Performance": block cyclic reduction, ``log2 n``
-    levels of array operations, ran as fast in one history, 2.4 times slower in a batch of 16
-    fifty-block stacks, and compiled slower)."""
+    ``A[k-1, k] = lower^T``), ``rhs`` ``(n, 3)``; returns ``x`` ``(n, 3)``.
+
+    One copy of a block's elimination in the program whatever ``n``. The scans carry each
+    entry as an array of its own (over the blocks; in a batch, a row of the batch's values
+    at each block), so that a step of the loop reads contiguous values. Block cyclic reduction
+    (``log2 n`` levels of array operations) ran as fast in one history, 2.4 times slower in a
+    batch of 16 fifty-block stacks, and compiled slower."""
     # built from every joint's forces and dashpots, and read by many entries: computed once
     (diag,), (lower,), (rhs,) = computed_once(diag), computed_once(lower), computed_once(rhs)
 
-    def lists(a):
-        return [[a[i, j] for j in range(3)] for i in range(3)]
+    def entries(a):  # (m, 3, 3) -> nested lists of (m,) arrays
+        return [[a[:, i, j] for j in range(3)] for i in range(3)]
 
-    def arr(m):
-        return jnp.stack([jnp.stack(row) for row in m])
+    def at(m, k):
+        return [[v[k] for v in row] for row in m]
+
+    d, low, r = entries(diag), entries(lower), [rhs[:, i] for i in range(3)]
 
     def forward(carry, x):
         inv_prev, g_prev = carry
-        d, low, r = x
-        lk = lists(low)
-        li = mm(lk, lists(inv_prev))
-        corr = mm(li, transpose(lk))
-        dk = [[d[i, j] - corr[i][j] for j in range(3)] for i in range(3)]
-        g = mv(li, [g_prev[i] for i in range(3)])
-        g = jnp.stack([r[i] - g[i] for i in range(3)])
-        inv_k = arr(inv3(dk))
+        d_k, low_k, r_k = x
+        li = mm(low_k, inv_prev)
+        corr = mm(li, transpose(low_k))
+        inv_k = inv3([[d_k[i][j] - corr[i][j] for j in range(3)] for i in range(3)])
+        g = mv(li, g_prev)
+        g = [r_k[i] - g[i] for i in range(3)]
         return (inv_k, g), (inv_k, g)
 
-    inv0 = arr(inv3(lists(diag[0])))
-    _, (invs, gs) = jax.lax.scan(forward, (inv0, rhs[0]), (diag[1:], lower, rhs[1:]))
-    invs = jnp.concatenate([inv0[None], invs])
-    gs = jnp.concatenate([rhs[0][None], gs])
-    last = jnp.stack(mv(lists(invs[-1]), [gs[-1][i] for i in range(3)]))
+    def tail(m):
+        return [[v[1:] for v in row] for row in m]
+
+    inv0 = inv3(at(d, 0))
+    g0 = [v[0] for v in r]
+    xs = (tail(d), low, [v[1:] for v in r])
+    _, (invs, gs) = jax.lax.scan(forward, (inv0, g0), xs)
+    last = mv(at(invs, -1), [v[-1] for v in gs])
 
     def backward(x_next, y):
         inv_k, g_k, low_next = y
-        u = mv(transpose(lists(low_next)), [x_next[i] for i in range(3)])
-        x_k = jnp.stack(mv(lists(inv_k), [g_k[i] - u[i] for i in range(3)]))
+        u = mv(transpose(low_next), x_next)
+        x_k = mv(inv_k, [g_k[i] - u[i] for i in range(3)])
         return x_k, x_k
 
-    _, xs = jax.lax.scan(backward, last, (invs[:-1], gs[:-1], lower), reverse=True)
-    return jnp.concatenate([xs, last[None]])
+    # the rows 0 .. n-2: row 0's pivot and right-hand side, then the scan's but the last
+    invs = [
+        [jnp.concatenate([inv0[i][j][None], invs[i][j][:-1]]) for j in range(3)] for i in range(3)
+    ]
+    gs = [jnp.concatenate([g0[i][None], gs[i][:-1]]) for i in range(3)]
+    _, x = jax.lax.scan(backward, last, (invs, gs, low), reverse=True)
+    return jnp.stack([jnp.concatenate([x[i], last[i][None]]) for i in range(3)], axis=-1)
 
 
 def energy_stacked(p: DemParams, st: DemState, vel, wall=None):
