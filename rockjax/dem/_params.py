@@ -151,9 +151,9 @@ STATE_FIELDS = ("x", "y", "c", "s", "vx", "vy", "w", "theta", "theta_max")
 
 
 def as_arrays(st: DemState) -> DemState:
-    """The state with its per-block fields as arrays ``(n,)`` and each face's shear springs
-    as rows of an array ``(faces, n_fs)`` (the layout's state)."""
-
+    """The state in the array layout of a tall stack (:func:`stacked`), from either: its
+    per-block fields as arrays ``(n,)``, each face's shear springs a row of an array
+    ``(faces, n_fs)``."""
     if not isinstance(st.x, tuple):
         return st
 

@@ -46,10 +46,12 @@ def matrix(m):
 
 
 def vector(v):
+    """A sequence of scalars (Python zeros among them) as an array."""
     return jnp.stack([jnp.asarray(x, float) for x in v])
 
 
 def springs_tuple(row, n_fs: int) -> tuple:
+    """A face's row of shear springs as the tuple of scalars :func:`interface` reads."""
     return tuple(row[i] for i in range(n_fs))
 
 
@@ -75,6 +77,7 @@ def bed_view(p: DemParams, blocks, links, state, fs):
 
 
 def face_ends_of(kin, face_span):
+    """A face's kinematics at its two ends (:func:`rockjax.dem._faces.face_ends`'s entry)."""
     return [kin(face_span[0]), kin(face_span[1])]
 
 
@@ -82,7 +85,7 @@ def step_stacked(
     p: DemParams, st: DemState, ag, ag_v, dt, *, load=None, top_motion=None, wall=None
 ):
     """:func:`rockjax.dem.step` of a stack in the array layout (``st`` from
-    :func:`as_arrays`). Returns the same ``(new, acc, power, forces)`` with arrays: ``acc``
+    :func:`rockjax.dem._params.as_arrays`). Returns the same ``(new, acc, power, forces)`` with arrays: ``acc``
     ``(n, 3)``, the forces' ``normal``, ``shear`` and ``wall`` ``(n,)``."""
     n = p.n
     n_fs = st.fs.shape[-1]
@@ -133,7 +136,7 @@ def step_stacked(
     acc = solve_chain(diag, h * c_ul, rhs)
     new = advance(*(getattr(st, f) for f in STATE_FIELDS), acc[:, 0], acc[:, 1], acc[:, 2], dt)
     d_max = ()
-    if isinstance(st.d_max, jax.Array):
+    if not isinstance(st.d_max, tuple):  # tracked where the driver asks
         d = st.x - p.x0 + 0.5 * p.h * st.s
         d_max = jnp.maximum(st.d_max, jnp.abs(d))
     fs = jnp.concatenate([vector(fs_g)[None], fs_b])
