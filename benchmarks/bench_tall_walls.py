@@ -95,7 +95,7 @@ def main(argv=None) -> None:
     ap.add_argument("--sizes", default="2,5,10,20,50,100", help="blocks per stack")
     ap.add_argument("--old-max", type=int, default=20, help="largest unrolled stack")
     ap.add_argument("--batch", type=int, default=16, help="records in the vmap batch")
-    ap.add_argument("--duration", type=float, default=0.2, help="record length [s]")
+    ap.add_argument("--duration", type=float, default=0.3, help="record length [s]")
     ap.add_argument("--rounds", type=int, default=3, help="alternating timing rounds")
     args = ap.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",")]
