@@ -23,13 +23,16 @@ stability limit and rounded down to divide the record step.
 Layout: ``_params`` (parameters, state, the step rule), ``_algebra`` (3 x 3 algebra, the
 solves), ``_faces`` (the joints' forces), ``_step`` (one step, energy, collapse), ``_state``
 (initial states), ``_run`` (the scan driver), ``_response`` (what a run returns),
-``_simulate`` (the public entry points and their checks).
+``_simulate`` (the public entry points and their checks); ``_stacked`` (the step, energy and
+collapse rule of a tall stack as array operations over its blocks, from
+``STACKED_MIN_BLOCKS`` blocks up: a program that does not grow with the stack).
 """
 
 from ._params import DT_ACCURACY as DT_ACCURACY
 from ._params import DT_ACCURACY_SUB as DT_ACCURACY_SUB
 from ._params import DT_SAFETY as DT_SAFETY
 from ._params import MODES as MODES
+from ._params import STACKED_MIN_BLOCKS as STACKED_MIN_BLOCKS
 from ._params import DemParams as DemParams
 from ._params import DemState as DemState
 from ._params import critical_dt as critical_dt

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 
+import jax
 import jax.numpy as jnp
 
 from .._fusion import computed_once, one_computation, sum_together
@@ -105,7 +106,7 @@ def pair_kinematics(p: DemParams, st: DemState, i: int):
     return kin, e1, e2, (x_rel, y_rel)
 
 
-def wall_kinematics(p: DemParams, st: DemState, k: int, motion=None):
+def wall_kinematics(p: DemParams, st: DemState, k: int | jax.Array, motion=None):
     """The back face of block ``k`` against the return wall, as :func:`pair_kinematics`
     gives a joint: the point ``(-b_k/2, t)`` (``t`` up the face) penetrates the wall line by
     ``delta``; the wall's normal is ``+x``, its tangent ``+y`` (the slip is the point's
@@ -262,7 +263,7 @@ def face_ends(p: DemParams, st: DemState, motion=None, one_history: bool = False
 def interface(
     p: DemParams,
     st: DemState,
-    k: int,
+    k: int | jax.Array,
     dt,
     ends,
     wall: bool = False,
@@ -433,7 +434,7 @@ def kept_share(lo, hi, d_lo, d_hi, dd_lo, dd_hi, release: str):
     return jnp.where(whole > 0.0, jnp.clip(kept / safe, 0.0, 1.0), 0.0)
 
 
-def face_energy(p: DemParams, k: int, span, ends, hist):
+def face_energy(p: DemParams, k: int | jax.Array, span, ends, hist):
     """Spring energy [J] of one face of block ``k`` (``span = (lo, hi)`` its face coordinates,
     ``ends`` its kinematics there (:func:`face_ends`), ``hist`` its shear springs):
     ``kn delta^2 / 2`` integrated exactly over the closed part, and ``f_s^2 / (2 k_s)`` of the

@@ -43,6 +43,27 @@ DT_ACCURACY_SUB = {m.name: m.dt_accuracy_sub for m in (Parapet, Facade)}
 switches on whole as it closes, so parapets need half the face law's step)."""
 
 
+STACKED_MIN_BLOCKS = 6
+"""Stacks of at least this many blocks run in the array layout (:mod:`rockjax.dem._stacked`,
+:func:`stacked`); smaller stacks, single blocks and rows of blocks side by side unrolled
+(every block and joint written out), whose program, and the time XLA takes to compile it,
+grow with the number of blocks (docs/assemblies.md, "Performance")."""
+
+
+def stacked(p: DemParams, layout: str | None = None) -> bool:
+    """Whether a run of ``p`` takes the array layout: ``layout`` ``"stacked"`` or
+    ``"unrolled"`` forces one (a stack of two blocks or more only), None chooses by
+    :data:`STACKED_MIN_BLOCKS`."""
+    if layout is None:
+        return stacked_layout(p.n, p.row)
+    return layout == "stacked" and not p.row and p.n > 1
+
+
+def stacked_layout(n: int, row: bool) -> bool:
+    """Whether ``n`` blocks (side by side: ``row``) take the array layout by default."""
+    return not row and n >= STACKED_MIN_BLOCKS
+
+
 def check_joint(joint) -> None:
     if not isinstance(joint, Joint):
         raise TypeError(
@@ -106,20 +127,58 @@ class DemState(eqx.Module):
     ``|theta|``); ``fs``: per interface, the shear spring force(s) [N] (one per face with the
     integrated face law, one per sub-contact with integer ``n_sub``); ``fs_wall``: those of
     each block's back face on the return wall (empty without return walls); ``d_max``: the
-    running max of each block's top displacement ``|x - x0 + (h/2) sin(theta)|`` [m]."""
+    running max of each block's top displacement ``|x - x0 + (h/2) sin(theta)|`` [m].
 
-    x: tuple
-    y: tuple
-    c: tuple
-    s: tuple
-    vx: tuple
-    vy: tuple
-    w: tuple
-    theta: tuple
-    theta_max: tuple
-    fs: tuple
-    fs_wall: tuple = ()
-    d_max: tuple = ()
+    A stack in the array layout (:func:`stacked`) holds each per-block field as an array of
+    shape ``(n,)`` instead, and ``fs``, ``fs_wall`` as arrays ``(faces, n_fs)``."""
+
+    x: tuple | jax.Array
+    y: tuple | jax.Array
+    c: tuple | jax.Array
+    s: tuple | jax.Array
+    vx: tuple | jax.Array
+    vy: tuple | jax.Array
+    w: tuple | jax.Array
+    theta: tuple | jax.Array
+    theta_max: tuple | jax.Array
+    fs: tuple | jax.Array
+    fs_wall: tuple | jax.Array = ()
+    d_max: tuple | jax.Array = ()
+
+
+STATE_FIELDS = ("x", "y", "c", "s", "vx", "vy", "w", "theta", "theta_max")
+"""The state's per-block fields that a step advances."""
+
+
+def as_arrays(st: DemState) -> DemState:
+    """The state in the array layout of a tall stack (:func:`stacked`), from either: its
+    per-block fields as arrays ``(n,)``, each face's shear springs a row of an array
+    ``(faces, n_fs)``."""
+    if not isinstance(st.x, tuple):
+        return st
+
+    def rows(faces):
+        return jnp.stack([jnp.stack(f) for f in faces]) if faces else ()
+
+    fields = {f: jnp.stack(getattr(st, f)) for f in STATE_FIELDS}
+    d_max = jnp.stack(st.d_max) if st.d_max else ()
+    return DemState(**fields, fs=rows(st.fs), fs_wall=rows(st.fs_wall), d_max=d_max)
+
+
+def as_tuples(st: DemState) -> DemState:
+    """The state in the unrolled layout (one scalar per block in each field), from either."""
+    if isinstance(st.x, tuple):
+        return st
+
+    def scalars(a):
+        return tuple(a[k] for k in range(a.shape[0]))
+
+    def rows(faces):
+        return tuple(scalars(row) for row in faces) if len(faces) else ()
+
+    fields = {f: scalars(getattr(st, f)) for f in STATE_FIELDS}
+    d_max = scalars(st.d_max) if len(st.d_max) else ()
+    return DemState(**fields, fs=rows(st.fs), fs_wall=rows(st.fs_wall), d_max=d_max)
 
 
 def as_assembly(body: Block | Assembly) -> Assembly:
@@ -211,6 +270,8 @@ def build_params(
     # the dashpot solve is block-tridiagonal: each joint couples block k to the ground or to
     # block k - 1 (a stack or a row)
     assert all(other in (-1, k - 1) for k, other, _ in links)
+    if stacked_layout(len(blocks), assembly.layout == "row"):
+        return stack_params(assembly, beta, gap, phi_deg, one_sided=one_sided, joint=joint)
     ends = [assembly.face(i) for i in range(len(links))]
     # a bed joint takes j_kn = E/h of the block above it (the paper's rule); a head joint is
     # smooth (no shear spring, no shear dashpot: docs/assemblies.md "Blocks side by side")
@@ -231,7 +292,6 @@ def build_params(
         for b in blocks:
             y0.append(base + 0.5 * b.h)
             base = base + b.h
-    top = blocks[-1]
     return DemParams(
         m=arr([b.m for b in blocks]),
         I_c=arr([b.I_c for b in blocks]),
@@ -244,6 +304,14 @@ def build_params(
         hi=arr([e[1] for e in ends]),
         kn_line=arr(kn),
         ks_line=arr(ks),
+        **common_params(assembly, beta, gap, phi_deg, one_sided, joint),
+    )
+
+
+def common_params(assembly: Assembly, beta, gap, phi_deg, one_sided: bool, joint: Joint) -> dict:
+    """:func:`build_params`'s fields that are not per block or per joint."""
+    top = assembly.blocks[-1]
+    return dict(
         beta=jnp.asarray(beta, float),
         tan_phi=jnp.tan(jnp.deg2rad(jnp.asarray(phi_deg, float))),
         top_load=jnp.asarray(assembly.top_load, float),
@@ -257,18 +325,48 @@ def build_params(
         shear_release=joint.shear_release,
         restrained=assembly.top == "restrained",
         one_sided=one_sided,
-        links=links,
+        links=assembly.interfaces,
         row=assembly.layout == "row",
     )
 
 
-def span(p: DemParams, k: int, wall: bool = False):
+def stack_params(assembly: Assembly, beta, gap, phi_deg, *, one_sided: bool, joint: Joint):
+    """:func:`build_params` of a stack in the array layout (:func:`stacked`): the blocks'
+    fields stacked into arrays first, and each per-block quantity computed once over them
+    (block by block, the set-up's program would grow with the stack)."""
+    blocks = jax.tree.map(
+        lambda *v: jnp.stack([jnp.asarray(x, float) for x in v]), *assembly.blocks
+    )
+    x0 = jnp.stack([jnp.asarray(x, float) for x in assembly.x_offset])
+    half = 0.5 * blocks.b
+    # the overlap of each bed joint (Assembly.overlap); the whole face on the ground
+    rel = x0[:-1] - x0[1:]
+    lo = jnp.maximum(-half[1:], rel - half[:-1])
+    hi = jnp.minimum(half[1:], rel + half[:-1])
+    # a bed joint takes j_kn = E/h of the block above it, as build_params
+    return DemParams(
+        m=blocks.m,
+        I_c=blocks.I_c,
+        b=blocks.b,
+        h=blocks.h,
+        eta=blocks.eta,
+        x0=x0,
+        y0=jnp.cumsum(blocks.h) - 0.5 * blocks.h,
+        lo=jnp.concatenate([-half[:1], lo]),
+        hi=jnp.concatenate([half[:1], hi]),
+        kn_line=blocks.j_kn * blocks.length,
+        ks_line=blocks.j_ks * blocks.length,
+        **common_params(assembly, beta, gap, phi_deg, one_sided, joint),
+    )
+
+
+def span(p: DemParams, k: int | jax.Array, wall: bool = False):
     """The face coordinates ``(lo, hi)`` [m] of interface ``k``'s face, or with ``wall`` of
     block ``k``'s back face on the return wall (``t`` up the face from its centre)."""
     return (-0.5 * p.h[k], 0.5 * p.h[k]) if wall else (p.lo[k], p.hi[k])
 
 
-def springs(p: DemParams, k: int, wall: bool = False):
+def springs(p: DemParams, k: int | jax.Array, wall: bool = False):
     """The springs of interface ``k`` (or of block ``k``'s back face on the return wall) for
     the all-closed stiffness: positions ``t`` along the face [m] and the normal and shear
     stiffnesses [N/m] (the two-point Gauss rule of the face for the integrated law: it gives
@@ -287,46 +385,80 @@ def springs(p: DemParams, k: int, wall: bool = False):
     return t, p.kn_line[k] * w, p.ks_line[k] * w
 
 
+def unit_rows(e, rx, ry):
+    """A unit force along ``e`` at offsets ``(rx, ry)`` [m] from a centroid: its generalised
+    force ``(Fx, Fy, clockwise moment)``, one row per offset."""
+    one = jnp.ones_like(rx)
+    return jnp.stack([e[0] * one, e[1] * one, ry * e[0] - rx * e[1]], axis=-1)
+
+
+def joint_stiffness(p: DemParams, i, k, other, kind: str):
+    """The all-closed stiffness of interface ``i`` (block ``k`` on block ``other``, or on the
+    ground for ``other < 0``; a static ``kind``): a 3 x 3 matrix on block ``k``'s degrees of
+    freedom, or 6 x 6 on ``other``'s then ``k``'s. ``i``, ``k`` and a block ``other`` may be
+    traced (a stack's bed joints mapped over)."""
+    t, kn, ks = springs(p, i)
+    # the face point at rest from block k's centroid, the joint's normal and tangent
+    if kind == "bed":
+        rx, ry, nrm, tng = t, -0.5 * p.h[k] + 0.0 * t, (0.0, 1.0), (1.0, 0.0)
+    else:
+        rx, ry, nrm, tng = -0.5 * p.b[k] + 0.0 * t, t, (1.0, 0.0), (0.0, 1.0)
+    a_n, a_s = unit_rows(nrm, rx, ry), unit_rows(tng, rx, ry)
+    if not isinstance(other, int) or other >= 0:
+        lx = p.x0[k] + rx - p.x0[other]
+        ly = p.y0[k] + ry - p.y0[other]
+        a_n = jnp.concatenate([-unit_rows(nrm, lx, ly), a_n], axis=-1)
+        a_s = jnp.concatenate([-unit_rows(tng, lx, ly), a_s], axis=-1)
+    return jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
+
+
+def wall_stiffness(p: DemParams, k):
+    """The all-closed stiffness of block ``k``'s back face on its return wall (3 x 3)."""
+    # the back face (-b/2, t): horizontal motion (1, 0, t), vertical (0, 1, b/2)
+    t, kn, ks = springs(p, k, wall=True)
+    zero, one = jnp.zeros_like(t), jnp.ones_like(t)
+    a_n = jnp.stack([one, zero, t], axis=-1)
+    a_s = jnp.stack([zero, one, 0.5 * p.b[k] * one], axis=-1)
+    return jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
+
+
+def stiffness_stacked(p: DemParams):
+    """:func:`omega_max`'s stiffness matrix (less the top restraint) of a stack in the array
+    layout (:data:`STACKED_MIN_BLOCKS`): the bed joints mapped over, the matrix assembled
+    from its diagonal and lower blocks, so that its program does not grow with the stack."""
+    n = p.n
+    beds = jax.vmap(lambda k: joint_stiffness(p, k, k, k - 1, "bed"))(jnp.arange(1, n))
+    diag = jnp.zeros((n, 3, 3)).at[0].add(joint_stiffness(p, 0, 0, -1, "bed"))
+    diag = diag.at[1:].add(beds[:, 3:, 3:]).at[:-1].add(beds[:, :3, :3])
+    if p.one_sided:
+        diag = diag + jax.vmap(lambda k: wall_stiffness(p, k))(jnp.arange(n))
+    k4 = jnp.zeros((n, 3, n, 3))
+    idx = jnp.arange(n)
+    k4 = k4.at[idx, :, idx, :].set(diag)
+    k4 = k4.at[idx[1:], :, idx[:-1], :].set(beds[:, 3:, :3])
+    k4 = k4.at[idx[:-1], :, idx[1:], :].set(beds[:, :3, 3:])
+    return k4.reshape(3 * n, 3 * n)
+
+
 def omega_max(p: DemParams):
     """Highest circular frequency [rad/s] of the block or assembly at rest with every spring
     closed. Every subset of closed contacts has a smaller stiffness matrix (in the PSD order),
     so this bounds the frequency of any contact state."""
     n = p.n
-    k_mat = jnp.zeros((3 * n, 3 * n))
-
-    def rows(e, rx, ry):
-        # a unit force along e at offset (rx, ry) from a centroid: (Fx, Fy, clockwise moment)
-        one = jnp.ones_like(rx)
-        return jnp.stack([e[0] * one, e[1] * one, ry * e[0] - rx * e[1]], axis=-1)
-
-    for i, (k, other, kind) in enumerate(p.links):
-        t, kn, ks = springs(p, i)
-        # the face point at rest from block k's centroid, the joint's normal and tangent
-        if kind == "bed":
-            rx, ry, nrm, tng = t, -0.5 * p.h[k] + 0.0 * t, (0.0, 1.0), (1.0, 0.0)
-        else:
-            rx, ry, nrm, tng = -0.5 * p.b[k] + 0.0 * t, t, (1.0, 0.0), (0.0, 1.0)
-        a_n, a_s = rows(nrm, rx, ry), rows(tng, rx, ry)
-        cols = list(range(3 * k, 3 * k + 3))
-        if other >= 0:
-            lx = p.x0[k] + rx - p.x0[other]
-            ly = p.y0[k] + ry - p.y0[other]
-            a_n = jnp.concatenate([-rows(nrm, lx, ly), a_n], axis=-1)
-            a_s = jnp.concatenate([-rows(tng, lx, ly), a_s], axis=-1)
-            cols = list(range(3 * other, 3 * other + 3)) + cols
-        sub = jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
-        idx = jnp.asarray(cols)
-        k_mat = k_mat.at[idx[:, None], idx[None, :]].add(sub)
-    for k in range(n):
-        if p.one_sided:
-            # the back face (-b/2, t): horizontal motion (1, 0, t), vertical (0, 1, b/2)
-            t, kn, ks = springs(p, k, wall=True)
-            zero, one = jnp.zeros_like(t), jnp.ones_like(t)
-            a_n = jnp.stack([one, zero, t], axis=-1)
-            a_s = jnp.stack([zero, one, 0.5 * p.b[k] * one], axis=-1)
-            sub = jnp.einsum("i,ij,ik->jk", kn, a_n, a_n) + jnp.einsum("i,ij,ik->jk", ks, a_s, a_s)
-            idx = jnp.arange(3 * k, 3 * k + 3)
-            k_mat = k_mat.at[idx[:, None], idx[None, :]].add(sub)
+    if stacked(p):
+        k_mat = stiffness_stacked(p)
+    else:
+        k_mat = jnp.zeros((3 * n, 3 * n))
+        for i, (k, other, kind) in enumerate(p.links):
+            cols = list(range(3 * k, 3 * k + 3))
+            if other >= 0:
+                cols = list(range(3 * other, 3 * other + 3)) + cols
+            idx = jnp.asarray(cols)
+            k_mat = k_mat.at[idx[:, None], idx[None, :]].add(joint_stiffness(p, i, k, other, kind))
+        for k in range(n):
+            if p.one_sided:
+                idx = jnp.arange(3 * k, 3 * k + 3)
+                k_mat = k_mat.at[idx[:, None], idx[None, :]].add(wall_stiffness(p, k))
     if p.restrained:
         a = jnp.zeros(3 * n).at[3 * n - 3].set(1.0).at[3 * n - 1].set(0.5 * p.h[-1])
         k_mat = k_mat + p.k_top * jnp.outer(a, a)

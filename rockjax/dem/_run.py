@@ -35,8 +35,9 @@ from ..response import (
     STATUS_UNSTABLE,
     Response,
 )
-from ._params import DemParams, DemState, omega_max
+from ._params import DemParams, DemState, as_arrays, as_tuples, omega_max, stacked
 from ._response import AssemblyResponse, block_response
+from ._stacked import collapsed_stacked, energy_stacked, step_stacked
 from ._step import collapsed, energy, step
 
 SCAN_CHUNK = 256
@@ -75,6 +76,7 @@ def run(
     wall=None,
     n=None,
     one_history: bool = False,
+    layout: str | None = None,
 ) -> AssemblyResponse:
     """The DEM run from a prepared state: what :func:`rockjax.simulate_dem` calls once it has
     checked its inputs (use it for set-ups it does not offer, e.g. a block dropped flat).
@@ -107,7 +109,15 @@ def run(
             samples). Every record whose length pads to one length shares one program.
         one_history: One history outside any transform: the step's shared values are kept
             as one XLA computation each (:func:`rockjax.dem.step`).
+        layout: How a stack's step is laid out: ``"unrolled"`` (every block and joint
+            written out, :func:`rockjax.dem.step`), ``"stacked"`` (array operations over the
+            blocks: a program whose size does not grow with the stack's height), or None:
+            stacks of :data:`rockjax.dem.STACKED_MIN_BLOCKS` blocks or more stacked, the
+            others unrolled. A row of blocks side by side is always unrolled. The two give
+            the same history to round-off.
     """
+    vec = stacked(p, layout)
+    st0 = as_arrays(st0) if vec else as_tuples(st0)
 
     def nxt(a):
         return jnp.concatenate([a[1:], a[-1:]])
@@ -161,23 +171,34 @@ def run(
             element, each element's fusion recomputing the step) and a moving wall's power."""
             tm = None if top is None else (u0 + j * du, w0 + j * dw)
             wm = (p0 + j * dp, q0 + j * dq) if moving else None
-            s_, acc, power, rec = step(
-                p,
-                s_,
-                a0 + j * da,
-                v0 + j * dv,
-                dt,
-                top_motion=tm,
-                wall=wm,
-                one_history=one_history,
-            )
-            flat = [v for row in acc for v in row]
+            if vec:
+                s_, acc, power, rec = step_stacked(
+                    p, s_, a0 + j * da, v0 + j * dv, dt, top_motion=tm, wall=wm
+                )
+                # whole arrays (the unrolled layout's scalars, in the same order)
+                flat = [acc]
+            else:
+                s_, acc, power, rec = step(
+                    p,
+                    s_,
+                    a0 + j * da,
+                    v0 + j * dv,
+                    dt,
+                    top_motion=tm,
+                    wall=wm,
+                    one_history=one_history,
+                )
+                flat = [v for row in acc for v in row]
             if work:
                 flat.append(power)
             if forces:
-                flat += [*rec["normal"], *rec["shear"]]
+                if vec:
+                    flat += [rec["normal"], rec["shear"]]
+                else:
+                    flat += [*rec["normal"], *rec["shear"]]
                 flat += [rec["restraint"]] if p.restrained else []
-                flat += rec["wall"] if p.one_sided else []
+                if p.one_sided:
+                    flat += [rec["wall"]] if vec else rec["wall"]
             return s_, flat, power
 
         if p.n == 1:
@@ -210,49 +231,76 @@ def run(
                     return (s_, j + 1.0, first, c[3] + dt * power), None
                 return (s_, j + 1.0, first), None
 
-            n_forces = (2 * p.n + p.restrained + (p.n if p.one_sided else 0)) if forces else 0
-            first0 = tuple(zero for _ in range(n_acc + n_forces))
+            if vec:
+                first0 = jax.eval_shape(lambda s_: substep(s_, zero)[1], st)
+                first0 = tuple(jnp.zeros(a.shape, a.dtype) for a in first0)
+            else:
+                n_forces = (2 * p.n + p.restrained + (p.n if p.one_sided else 0)) if forces else 0
+                first0 = tuple(zero for _ in range(n_acc + n_forces))
             init = (st, zero, first0) + ((carry[3],) if work else ())
             if static:
                 done, _ = jax.lax.scan(inner, init, length=n_in)
             else:
                 done = jax.lax.fori_loop(0, n_in, lambda _, c: inner(c, None)[0], init)
             new, first = done[0], done[2]
-        vel = [
-            (
-                st.vx[k] + 0.5 * dt * first[3 * k],
-                st.vy[k] + 0.5 * dt * first[3 * k + 1],
-                st.w[k] + 0.5 * dt * first[3 * k + 2],
-            )
-            for k in range(p.n)
-        ]
-        out = {
-            "theta": jnp.stack(st.theta, axis=-1),
-            "theta_dot": jnp.stack([v[2] for v in vel], axis=-1),
-            "x": jnp.stack(st.x, axis=-1) - p.x0,
-            "y": jnp.stack(st.y, axis=-1),
-            "d": jnp.stack(
-                [st.x[k] - p.x0[k] + 0.5 * p.h[k] * st.s[k] for k in range(p.n)], axis=-1
-            ),
-        }
-        if "energy" in save:
-            out["energy"] = energy(p, st, vel, (p0, q0) if moving else None, one_history)
-        if work:
-            # as rockjax.simulate_dem: the steps' power x dt summed, half a step past the
-            # sample (the constant half step of the first sample is taken off at the end)
-            out["work_wall"] = carry[3] + 0.5 * dt * first[3 * p.n]
-        if forces:
-            # the forces of the sample's step (its state, the dashpots at the lagged
-            # half-step velocity), as rockjax.simulate_dem records its base normal forces
-            rec = first[n_acc:]
-            n = p.n
-            out["normal_forces"] = jnp.stack(rec[:n], axis=-1)
-            out["shear_forces"] = jnp.stack(rec[n : 2 * n], axis=-1)
-            if p.restrained:
-                out["restraint_force"] = rec[2 * n]
-            if p.one_sided:
-                out["wall_forces"] = jnp.stack(rec[2 * n + p.restrained :], axis=-1)
-        over = overturned | collapsed(p, new)
+        wall_now = (p0, q0) if moving else None
+        if vec:
+            vel = jnp.stack([st.vx, st.vy, st.w], axis=-1) + 0.5 * dt * first[0]
+            out = {
+                "theta": st.theta,
+                "theta_dot": vel[:, 2],
+                "x": st.x - p.x0,
+                "y": st.y,
+                "d": st.x - p.x0 + 0.5 * p.h * st.s,
+            }
+            if "energy" in save:
+                out["energy"] = energy_stacked(p, st, vel, wall_now)
+            if work:
+                out["work_wall"] = carry[3] + 0.5 * dt * first[1]
+            if forces:
+                rec = first[1 + work :]
+                out["normal_forces"], out["shear_forces"] = rec[0], rec[1]
+                if p.restrained:
+                    out["restraint_force"] = rec[2]
+                if p.one_sided:
+                    out["wall_forces"] = rec[2 + p.restrained]
+            over = overturned | collapsed_stacked(p, new)
+        else:
+            vel = [
+                (
+                    st.vx[k] + 0.5 * dt * first[3 * k],
+                    st.vy[k] + 0.5 * dt * first[3 * k + 1],
+                    st.w[k] + 0.5 * dt * first[3 * k + 2],
+                )
+                for k in range(p.n)
+            ]
+            out = {
+                "theta": jnp.stack(st.theta, axis=-1),
+                "theta_dot": jnp.stack([v[2] for v in vel], axis=-1),
+                "x": jnp.stack(st.x, axis=-1) - p.x0,
+                "y": jnp.stack(st.y, axis=-1),
+                "d": jnp.stack(
+                    [st.x[k] - p.x0[k] + 0.5 * p.h[k] * st.s[k] for k in range(p.n)], axis=-1
+                ),
+            }
+            if "energy" in save:
+                out["energy"] = energy(p, st, vel, wall_now, one_history)
+            if work:
+                # as rockjax.simulate_dem: the steps' power x dt summed, half a step past the
+                # sample (the constant half step of the first sample is taken off at the end)
+                out["work_wall"] = carry[3] + 0.5 * dt * first[3 * p.n]
+            if forces:
+                # the forces of the sample's step (its state, the dashpots at the lagged
+                # half-step velocity), as rockjax.simulate_dem records its base normal forces
+                rec = first[n_acc:]
+                n = p.n
+                out["normal_forces"] = jnp.stack(rec[:n], axis=-1)
+                out["shear_forces"] = jnp.stack(rec[n : 2 * n], axis=-1)
+                if p.restrained:
+                    out["restraint_force"] = rec[2 * n]
+                if p.one_sided:
+                    out["wall_forces"] = jnp.stack(rec[2 * n + p.restrained :], axis=-1)
+            over = overturned | collapsed(p, new)
         leaves = jax.tree_util.tree_leaves(new)
         bad = ~jnp.all(jnp.stack([jnp.all(jnp.isfinite(v)) for v in leaves]))
         status = jnp.where(
@@ -290,10 +338,10 @@ def run(
         x=out["x"],
         y=out["y"],
         d=out["d"],
-        d_max=jnp.stack(st.d_max),
+        d_max=st.d_max if vec else jnp.stack(st.d_max),
         overturned=overturned,
         status=status,
-        theta_max=jnp.stack(st.theta_max),
+        theta_max=st.theta_max if vec else jnp.stack(st.theta_max),
         eta=p.eta,
         energy=out.get("energy"),
         dt=jnp.asarray(dt, float),

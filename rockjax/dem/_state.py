@@ -24,6 +24,7 @@ from ._params import (
     build_params,
     params_args,
     params_options,
+    stacked,
     steps,
 )
 
@@ -139,6 +140,8 @@ def settled(assembly: Assembly, p: DemParams, theta0, hinge: bool) -> DemState:
             fs=tuple((zero,) * n_fs for _ in p.links),
             **rest,
         )
+    if stacked(p):
+        return settled_stacked(assembly, p, theta0)
     weight = sum(b.m for b in assembly.blocks) * G + assembly.top_load
     pose = rest_pose(carrying(assembly.blocks[0], weight), theta0, p.n_sub)
     if hinge:
@@ -163,6 +166,44 @@ def settled(assembly: Assembly, p: DemParams, theta0, hinge: bool) -> DemState:
         theta_max=(jnp.abs(theta0),) * n,
         fs=tuple((zero,) * n_fs for _ in range(n)),
         **rest,
+    )
+
+
+def settled_stacked(assembly: Assembly, p: DemParams, theta0) -> DemState:
+    """:func:`settled` of a stack in the array layout (:func:`rockjax.dem._params.stacked`):
+    the same pose, its sums over the blocks as cumulative sums, and the state's per-block
+    fields as arrays (written out block by block, the set-up's program would grow with the
+    stack, and take as long to compile as the run)."""
+    n = p.n
+    n_fs = 1 if p.face else p.n_sub
+    weight = jnp.sum(p.m) * G + assembly.top_load
+    x_0, y_0, c, s = rest_pose(carrying(assembly.blocks[0], weight), theta0, p.n_sub)
+    # each bed joint settles uniformly under the weight above it
+    load = weight - jnp.cumsum(p.m[:-1]) * G
+    sink = load / (p.kn_line[1:] * (p.hi[1:] - p.lo[1:]))
+    du = p.x0[1:] - p.x0[:-1]
+    dv = 0.5 * p.h[:-1] + 0.5 * p.h[1:] - sink
+    x = x_0 + p.x0[0] + jnp.concatenate([jnp.zeros(1), jnp.cumsum(du * c + dv * s)])
+    y = y_0 + jnp.concatenate([jnp.zeros(1), jnp.cumsum(-du * s + dv * c)])
+    theta0 = jnp.asarray(theta0, float)
+    zeros = jnp.zeros(n)
+
+    def every(v):
+        return jnp.full(n, v)
+
+    return DemState(
+        x=x,
+        y=y,
+        c=every(c),
+        s=every(s),
+        vx=zeros,
+        vy=zeros,
+        w=zeros,
+        theta=every(theta0),
+        theta_max=every(jnp.abs(theta0)),
+        fs=jnp.zeros((n, n_fs)),
+        fs_wall=jnp.zeros((n, n_fs)) if p.one_sided else (),
+        d_max=zeros,
     )
 
 

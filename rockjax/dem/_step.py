@@ -21,7 +21,7 @@ from ..constants import G
 from ..contact import normal_force
 from ._algebra import LDL_BATCH_MAX_BLOCKS, add, mul, plus, scale, solve_ldl, solve_tridiagonal
 from ._faces import face_ends, face_energy, interface
-from ._params import DemParams, DemState, span
+from ._params import STATE_FIELDS, DemParams, DemState, as_arrays, as_tuples, span
 
 
 def top(p: DemParams, st: DemState, dt, top_motion=None):
@@ -77,7 +77,9 @@ def step(
 
     Args:
         p: The parameters (:func:`rockjax.dem.dem_params`).
-        st: The state at step ``n`` (velocities at ``n - 1/2``).
+        st: The state at step ``n`` (velocities at ``n - 1/2``), in either layout (one in
+            the array layout of a tall stack, :class:`rockjax.dem.DemState`, is stepped as
+            its scalars and returned in its layout).
         ag: Horizontal acceleration of the base [m/s^2] (the frame of the run).
         ag_v: Vertical acceleration of the base [m/s^2].
         dt: Time step [s].
@@ -102,6 +104,12 @@ def step(
         horizontal force on the top block, or None) and ``wall`` (each back face's normal
         force, or None).
     """
+    if not isinstance(st.x, tuple):  # a state in the array layout: stepped as its scalars
+        new, acc, power, forces = step(
+            p, as_tuples(st), ag, ag_v, dt, load=load, top_motion=top_motion, wall=wall,
+            one_history=one_history,
+        )  # fmt: skip
+        return as_arrays(new), acc, power, forces
     ldl = one_history or p.n <= LDL_BATCH_MAX_BLOCKS
     n = p.n
     force = [[0.0, 0.0, 0.0] for _ in range(n)]
@@ -155,28 +163,14 @@ def step(
         rhs.append([force[k][0] - mk * ag, force[k][1] - mk * (G + ag_v), plus(force[k][2])])
     solve = solve_ldl if ldl else solve_tridiagonal
     acc = one_computation(solve, diag, lower, rhs)
-    new = {f: [] for f in ("x", "y", "c", "s", "vx", "vy", "w", "theta", "theta_max", "d_max")}
+    new = {f: [] for f in (*STATE_FIELDS, "d_max")}
     for k in range(n):
         ax, ay, aw = acc[k]
-        vx = st.vx[k] + dt * ax
-        vy = st.vy[k] + dt * ay
-        w = st.w[k] + dt * aw
-        dth = dt * w
-        d2 = dth * dth
-        cd = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0 - d2 / 720.0))
-        sd = dth * (1.0 - d2 * (1.0 / 6.0 - d2 / 120.0))
-        c, s = st.c[k], st.s[k]
-        new["x"].append(st.x[k] + dt * vx)
-        new["y"].append(st.y[k] + dt * vy)
-        new["c"].append(c * cd - s * sd)
-        new["s"].append(s * cd + c * sd)
-        new["vx"].append(vx)
-        new["vy"].append(vy)
-        new["w"].append(w)
-        new["theta"].append(st.theta[k] + dth)
-        new["theta_max"].append(jnp.maximum(st.theta_max[k], jnp.abs(st.theta[k])))
+        fields = advance(*(getattr(st, f)[k] for f in STATE_FIELDS), ax, ay, aw, dt)
+        for f in STATE_FIELDS:
+            new[f].append(fields[f])
         if st.d_max:  # the top displacement at step n (tracked where the driver asks)
-            d = st.x[k] - p.x0[k] + 0.5 * p.h[k] * s
+            d = st.x[k] - p.x0[k] + 0.5 * p.h[k] * st.s[k]
             new["d_max"].append(jnp.maximum(st.d_max[k], jnp.abs(d)))
     out = DemState(
         **{key: tuple(v) for key, v in new.items()}, fs=tuple(fs_all), fs_wall=tuple(fs_wall)
@@ -188,6 +182,31 @@ def step(
         wall=fn_wall if p.one_sided else None,
     )
     return out, acc, power, forces
+
+
+def advance(x, y, c, s, vx, vy, w, theta, theta_max, ax, ay, aw, dt) -> dict:
+    """A block's (or, as arrays, every block's) :data:`STATE_FIELDS` at step ``n + 1`` from
+    those at ``n`` and the accelerations ``ax, ay, aw`` [m/s^2, rad/s^2]: central differences,
+    and ``cos``/``sin`` of theta turned by the exact rotation through ``dtheta = dt w`` (its
+    cosine and sine as Taylor series, module docstring)."""
+    vx = vx + dt * ax
+    vy = vy + dt * ay
+    w = w + dt * aw
+    dth = dt * w
+    d2 = dth * dth
+    cd = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0 - d2 / 720.0))
+    sd = dth * (1.0 - d2 * (1.0 / 6.0 - d2 / 120.0))
+    return dict(
+        x=x + dt * vx,
+        y=y + dt * vy,
+        c=c * cd - s * sd,
+        s=s * cd + c * sd,
+        vx=vx,
+        vy=vy,
+        w=w,
+        theta=theta + dth,
+        theta_max=jnp.maximum(theta_max, jnp.abs(theta)),
+    )
 
 
 # ----------------------------------------------------------------------------- energy, collapse
@@ -206,6 +225,11 @@ def energy(p: DemParams, st: DemState, vel, wall=None, one_history: bool = False
         e = e + p.m[k] * G * st.y[k]
         if p.one_sided:
             e = e + face_energy(p, k, span(p, k, wall=True), wall_ends[k], st.fs_wall[k])
+    return top_energy(p, st, e)
+
+
+def top_energy(p: DemParams, st: DemState, e=0.0):
+    """``e`` plus the overburden's potential energy and the top restraint spring's [J]."""
     k = p.n - 1
     qx = st.x[k] + 0.5 * p.h[k] * st.s[k]
     qy = st.y[k] + 0.5 * p.h[k] * st.c[k]
@@ -237,12 +261,8 @@ def collapsed(p: DemParams, st: DemState):
         return over
     # a restrained wall's top block is held at its top: it falls only off the block below
     for k in range(p.n - 1 if p.restrained and p.n > 1 else p.n):
-        th, w = st.theta[k], st.w[k]
-        past = (jnp.abs(th) > p.eta[k]) & (th * w > 0)
-        if k > 0:  # and relative to the block below
-            rel, w_rel = th - st.theta[k - 1], w - st.w[k - 1]
-            past = past & (jnp.abs(rel) > p.eta[k]) & (rel * w_rel > 0) & (rel * th > 0)
-        over = over | past
+        below = None if k == 0 else (st.theta[k - 1], st.w[k - 1])
+        over = over | turned_off(st.theta[k], st.w[k], p.eta[k], below)
     if p.n > 1 and not p.restrained:
         k_top = p.n - 1
         hq = 0.5 * p.h[k_top]
@@ -258,37 +278,64 @@ def collapsed(p: DemParams, st: DemState):
             mvx, mvy = mvx + p.m[k] * st.vx[k], mvy + p.m[k] * st.vy[k]
             g = (mx / mass, my / mass)
             gv = (mvx / mass, mvy / mass)
-            c, s = st.c[k], st.s[k]
-            hh = 0.5 * p.h[k]
+            body = (st.x[k], st.y[k], st.vx[k], st.vy[k], st.w[k], st.c[k], st.s[k])
+            below = None if k == 0 else (st.c[k - 1], st.s[k - 1], st.w[k - 1])
             for end, sign in ((p.hi[k], 1.0), (p.lo[k], -1.0)):
-                # the end of the support face, a point of block k (body (end, -h_k/2))
-                ex, ey = st.x[k] + end * c - hh * s, st.y[k] - end * s - hh * c
-                evx = st.vx[k] + st.w[k] * (ey - st.y[k])
-                evy = st.vy[k] - st.w[k] * (ex - st.x[k])
-                dx, dy = g[0] - ex, g[1] - ey
-                dvx, dvy = gv[0] - evx, gv[1] - evy
-                # under gravity: beyond the end horizontally, moving outward
-                past = (sign * dx > 0) & (sign * gv[0] > 0)
-                if k > 0:
-                    # in the frame of block k - 1: along its top face e1 = (c_l, -s_l),
-                    # beyond the end and moving outward relative to it
-                    cl, sl, wl = st.c[k - 1], st.s[k - 1], st.w[k - 1]
-                    along = cl * dx - sl * dy
-                    rate = cl * dvx - sl * dvy - wl * (sl * dx + cl * dy)
-                    past = past & (sign * along > 0) & (sign * rate > 0)
+                past = beyond_end(*g, *gv, *body, 0.5 * p.h[k], end, sign, below)
                 over = over | past
     for k in range(1, p.n):
-        # slid off: the centre of block k's bottom face (body point (0, -h_k/2)), in the frame
-        # of block k - 1, beyond that block's half-width; measured at the face, not the
-        # centroid, because a block hinging on the edge below turns its centroid past the
-        # edge without leaving its support
-        cl, sl = st.c[k - 1], st.s[k - 1]
-        hh = 0.5 * p.h[k]
-        fx = st.x[k] - hh * st.s[k] - st.x[k - 1]
-        fy = st.y[k] - hh * st.c[k] - st.y[k - 1]
-        u = cl * fx - sl * fy
-        over = over | (jnp.abs(u) > 0.5 * p.b[k - 1])
+        lower = (st.x[k - 1], st.y[k - 1], st.c[k - 1], st.s[k - 1], 0.5 * p.b[k - 1])
+        over = over | slid_off(st.x[k], st.y[k], st.c[k], st.s[k], 0.5 * p.h[k], *lower)
     return over
+
+
+def turned_off(th, w, eta, below=None):
+    """A block past ``|theta| > eta`` rotating outward and, on a block (``below = (theta_l,
+    w_l)``, the block below's rotation [rad] and rate [rad/s]), past it relative to that
+    block too, turning the same way (:func:`collapsed`). Elementwise: scalars or arrays."""
+    past = (jnp.abs(th) > eta) & (th * w > 0)
+    if below is not None:
+        rel, w_rel = th - below[0], w - below[1]
+        past = past & (jnp.abs(rel) > eta) & (rel * w_rel > 0) & (rel * th > 0)
+    return past
+
+
+def beyond_end(gx, gy, gvx, gvy, x, y, vx, vy, w, c, s, hh, end, sign, below=None):
+    """The centre of mass ``g`` (velocity ``gv``) of the sub-stack on block ``k`` (centroid
+    ``x, y``, velocity ``vx, vy, w``, ``c, s`` its rotation's cosine and sine, ``hh`` its
+    half-height) past the end ``end`` (``sign`` +1: the +x end) of its support face and
+    moving outward: under gravity and, on a block (``below = (c_l, s_l, w_l)`` of the block
+    below), in its frame too (:func:`collapsed`). Elementwise: scalars or arrays."""
+    # the end of the support face, a point of block k (body (end, -h_k/2))
+    ex, ey = x + end * c - hh * s, y - end * s - hh * c
+    evx = vx + w * (ey - y)
+    evy = vy - w * (ex - x)
+    dx, dy = gx - ex, gy - ey
+    dvx, dvy = gvx - evx, gvy - evy
+    # under gravity: beyond the end horizontally, moving outward
+    past = (sign * dx > 0) & (sign * gvx > 0)
+    if below is not None:
+        # in the frame of block k - 1: along its top face e1 = (c_l, -s_l), beyond the end
+        # and moving outward relative to it
+        cl, sl, wl = below
+        along = cl * dx - sl * dy
+        rate = cl * dvx - sl * dvy - wl * (sl * dx + cl * dy)
+        past = past & (sign * along > 0) & (sign * rate > 0)
+    return past
+
+
+def slid_off(x, y, c, s, hh, xl, yl, cl, sl, half_bl):
+    """Block ``k`` (centroid ``x, y``, ``c, s`` its rotation's cosine and sine, ``hh`` its
+    half-height)
+    slid off the block below (centroid ``xl, yl``, rotation's ``cl, sl``, half-width
+    ``half_bl``): the centre of its bottom face (body point ``(0, -hh)``), in the frame of
+    the block below, beyond that block's half-width; measured at the face, not the centroid,
+    because a block hinging on the edge below turns its centroid past the edge without
+    leaving its support. Elementwise: scalars or arrays."""
+    fx = x - hh * s - xl
+    fy = y - hh * c - yl
+    u = cl * fx - sl * fy
+    return jnp.abs(u) > half_bl
 
 
 # ----------------------------------------------------------------------------- initial state
