@@ -7,6 +7,7 @@ block). The two differ only in the order of floating-point sums."""
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import rockjax as rj
 from rockjax import dem
@@ -140,6 +141,7 @@ def test_stacked_program_does_not_grow_with_the_stack():
     assert sizes[0] == sizes[1], sizes
 
 
+@pytest.mark.slow  # 20-23 s (three runs of a tall stack); ./test.sh -m slow
 def test_grad_through_a_tall_stack_matches_finite_differences():
     asm = _stack(8)
     gm = rj.GroundMotion.sine_cycle(pga=6.0, period=0.25, dt=DT_OUT, duration=0.3)

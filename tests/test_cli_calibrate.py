@@ -114,6 +114,7 @@ def test_help_lists_every_option():
 BANDS = ((0.64, 0.72), (0.74, 0.86), rj.calibration.BOUNCE_BANDS[2])
 
 
+@pytest.mark.slow  # 25-31 s: a whole facade fit through the CLI; ./test.sh -m slow
 def test_one_sided_default_calibrates_to_the_bounce_targets(tmp_path):
     """`--mode one_sided` alone fits the bounce targets (it used to fit Housner's e = |e_ISR|
     and report converged with loss 0): the best match, exit status 0 when it converged;
