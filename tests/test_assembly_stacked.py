@@ -163,3 +163,13 @@ def test_grad_through_a_tall_stack_matches_finite_differences():
     fd = float((top_theta(1e-3 + eps) - top_theta(1e-3 - eps)) / (2 * eps))
     assert np.isfinite(g) and g != 0.0
     assert abs(g - fd) <= FD_REL * abs(fd), (g, fd)
+
+
+def test_an_unknown_layout_is_refused():
+    body = rj.Assembly.stack([rj.Block(b=0.23, h=0.3)] * 2)
+    p = dem.dem_params(body, 1e-3)
+    s0 = dem.initial_state(body, p)
+    z = np.zeros(64)
+    with pytest.raises(ValueError, match=r"layout must be one of \['stacked', 'unrolled'\]"):
+        dem.run(p, s0, z, z, np.asarray(1e-4), np.asarray(0.01), 10, (), False, None, None,
+                layout="stack")  # fmt: skip

@@ -56,7 +56,16 @@ def stacked(p: DemParams, layout: str | None = None) -> bool:
     :data:`STACKED_MIN_BLOCKS`."""
     if layout is None:
         return stacked_layout(p.n, p.row)
+    if layout not in LAYOUTS:
+        raise ValueError(
+            f"layout must be one of {list(LAYOUTS)} or None (chosen by the stack's height); "
+            f"got layout={layout!r}."
+        )
     return layout == "stacked" and not p.row and p.n > 1
+
+
+LAYOUTS = ("stacked", "unrolled")
+"""The DEM step's layouts (:func:`rockjax.dem.run`'s ``layout``)."""
 
 
 def stacked_layout(n: int, row: bool) -> bool:
