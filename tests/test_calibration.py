@@ -253,6 +253,18 @@ def test_history_verdict_needs_the_measured_peaks_matched(twin):
     assert "HISTORY_TOL" in why
 
 
+def test_fit_history_runs_as_a_user_calls_it(twin):
+    """One iteration of the two-parameter fit, called eagerly (the whole fit, against its
+    twin, is the slow test below): a result with finite parameters, no convergence claimed
+    after one step, and the DEM at the result over the measured record."""
+    meas, _ = twin
+    fit = rj.fit_history(BLOCK, meas, beta0=0.002, max_iter=1)
+    assert isinstance(fit, calibration.HistoryFit)
+    assert np.isfinite(fit.beta) and np.isfinite(fit.b) and fit.n_iterations <= 1
+    assert not fit.converged and fit.reason
+    assert float(fit.dem.t[-1]) == pytest.approx(float(meas.t[-1]))
+
+
 @pytest.mark.slow
 def test_fit_history_recovers_two_parameters(twin):
     """Twin experiment: the noisy history at (beta, b) = (0.004 s, 0.23 m) fitted from the

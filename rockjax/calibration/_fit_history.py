@@ -10,7 +10,6 @@ import numpy as np
 
 from .. import metrics
 from ..block import Block
-from ..compilation import persistent_jit
 from ..dem import simulate_dem
 from ..modes import Mode, as_mode
 from ..response import Response
@@ -36,7 +35,6 @@ def _history_params(u, problem):
     return history_params(problem, u)
 
 
-@persistent_jit
 def fit_history(
     block: Block,
     measured: Response,
