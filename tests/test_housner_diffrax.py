@@ -126,6 +126,7 @@ def _pulse():
     return rj.GroundMotion.sine_cycle(pga_g=0.2, period=0.5, dt=0.01, duration=4.0)
 
 
+@pytest.mark.slow  # 25-28 s (reverse and forward mode through diffrax); ./test.sh -m slow
 def test_grad_and_jvp_match_central_differences():
     block, pulse = rj.Block(b=0.25, h=3.0), _pulse()
 
