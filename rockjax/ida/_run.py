@@ -3,6 +3,7 @@ solved once per record."""
 
 from __future__ import annotations
 
+import functools
 import math
 
 import jax
@@ -149,29 +150,43 @@ def run_chunk(
     dt_bound,
     mesh=None,
 ):
+    """EDPs of one chunk of runs (:func:`chunk_runs`), compiled; ``mesh``: the devices the
+    runs are split over (``shard_map``: each device runs its share as a batch of its own, on
+    its own core), or None."""
+    options = dict(model=model, mode=mode, dt_rec=dt_rec, dt_bound=dt_bound)
+    args = (block, ag, ag_v, rec_idx, scale, wall, support)
+    if mesh is None:
+        return chunk_runs(*args, **options)
+    spec, every = jax.sharding.PartitionSpec("run"), jax.sharding.PartitionSpec()
+    # (the scan's initial carries are not marked as varying over the devices: unchecked)
+    return jax.shard_map(
+        functools.partial(chunk_runs, **options),
+        mesh=mesh,
+        in_specs=(every, every, every, spec, spec, every, every),
+        out_specs=spec,
+        check_vma=False,
+    )(*args)
+
+
+def chunk_runs(
+    block,
+    ag,
+    ag_v,
+    rec_idx,
+    scale,
+    wall,
+    support,
+    *,
+    model,
+    mode,
+    dt_rec,
+    dt_bound,
+):
     """EDPs of one chunk of runs: ``ag[rec_idx[k]] * scale[k]`` for each k (batched) with the
     ``model`` object; ``wall``: None, or the return wall's ``(u_top, v_top)`` per record at
     scale 1, scaled likewise; ``support``: None, or an assembly's base acceleration (and top
     restraint's ``(u, v)``) per record at scale 1 (:func:`support_histories`), scaled
-    likewise. ``mesh``: the devices the runs are split over (``shard_map``: each device runs
-    its share as a batch of its own, on its own core), or None."""
-    if mesh is not None:
-        spec, every = jax.sharding.PartitionSpec("run"), jax.sharding.PartitionSpec()
-
-        def share(block, ag, ag_v, rec_idx, scale, wall, support):
-            return run_chunk(
-                block, ag, ag_v, rec_idx, scale, wall, support,
-                model=model, mode=mode, dt_rec=dt_rec, dt_bound=dt_bound,
-            )  # fmt: skip
-
-        # (the scan's initial carries are not marked as varying over the devices: unchecked)
-        return jax.shard_map(
-            share,
-            mesh=mesh,
-            in_specs=(every, every, every, spec, spec, every, every),
-            out_specs=spec,
-            check_vma=False,
-        )(block, ag, ag_v, rec_idx, scale, wall, support)
+    likewise (un-jitted: :func:`run_chunk` compiles it)."""
 
     def one(i, s):
         motion = GroundMotion(ag=s * ag[i], dt=dt_rec, ag_v=None if ag_v is None else s * ag_v[i])
