@@ -445,9 +445,13 @@ def _dem_unpadded(block, gm, resp, *, mode="two_sided", gap=0.0, beta=0.0, save=
     dt = float(resp.extras["dt"])
     n_in = round(gm.dt / dt)
     ag = np.asarray(gm.ag, dtype=float)
+    kw = {}
+    if "dt_open" in resp.extras:  # a facade's open steps: the steps a sample as data
+        n_in = np.int32(n_in)
+        kw["n_open"] = np.int32(round(gm.dt / float(resp.extras["dt_open"])))
     r = dem.run(
         params, dem.initial_state(block, params), ag, np.zeros_like(ag), np.asarray(dt),
-        np.asarray(gm.dt), n_in, save, True, None, wall,
+        np.asarray(gm.dt), n_in, save, True, None, wall, **kw,
     )  # fmt: skip
     return dem.block_response(r, jnp.asarray(block.b, float))
 

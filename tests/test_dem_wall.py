@@ -76,8 +76,12 @@ def test_zero_wall_motion_is_the_fixed_wall(facade):
     params = dem.dem_params(facade, BETA_BATCH, mode="one_sided", gap=0.002)
     s0 = dem.initial_state(facade, params)
     n_in = round(gm.dt / float(moving.extras["dt"]))
+    # (the steps a sample as data, and the open steps the facade takes off its wall)
+    n_open = np.int32(round(gm.dt / float(moving.extras["dt_open"])))
+    assert n_open < n_in
     step = np.asarray(gm.dt / n_in)
-    fixed = dem.run(params, s0, np.asarray(gm.ag), z, step, gm.dt, n_in, (), True)
+    args = (params, s0, np.asarray(gm.ag), z, step, gm.dt, np.int32(n_in), (), True)
+    fixed = dem.run(*args, n_open=n_open)
     fixed = eqx.tree_at(lambda r: r.theta, fixed, fixed.theta[:, 0])
     scale = float(np.max(np.abs(fixed.theta)))
     assert scale > 0.1 * float(facade.eta)  # it rocks
@@ -163,19 +167,21 @@ def test_wall_work_covers_the_energy_with_friction(facade):
 
 
 def test_jit_and_vmap_over_wall_histories(facade):
-    """jit(vmap) over two wall histories equals a Python loop of eager runs."""
+    """jit(vmap) over two wall histories equals a Python loop of eager runs: with the step as
+    data, each run of the batch takes its own open and closed steps as it would alone."""
     u1, v1 = _smooth_push(0.01, 0.5, N_BATCH)
     u2, v2 = _smooth_push(0.03, 0.4, N_BATCH)
     gm = _quiet(N_BATCH)
     dt = _batch_dt(facade)
 
-    def run(u, v):
+    def run(u, v, dt):
         return rj.simulate_dem(
             facade, gm, mode="one_sided", beta=BETA_BATCH, dt=dt, wall_motion=(u, v)
         ).theta
 
-    loop = np.stack([np.asarray(run(u1, v1)), np.asarray(run(u2, v2))])
-    batched = jax.jit(jax.vmap(run))(jnp.stack([u1, u2]), jnp.stack([v1, v2]))
+    loop = np.stack([np.asarray(run(u1, v1, dt)), np.asarray(run(u2, v2, dt))])
+    batch = jax.jit(jax.vmap(run, in_axes=(0, 0, None)))
+    batched = batch(jnp.stack([u1, u2]), jnp.stack([v1, v2]), jnp.asarray(dt))
     assert loop[1].max() > 2 * loop[0].max() > 0
     scale = float(np.max(np.abs(loop)))
     np.testing.assert_allclose(batched, loop, rtol=0, atol=SAME_RTOL * scale)

@@ -41,6 +41,8 @@ from ._params import dem_params as dem_params
 from ._params import omega_max as omega_max
 from ._response import AssemblyResponse as AssemblyResponse
 from ._response import block_response as block_response
+from ._run import REACH_SAMPLES as REACH_SAMPLES
+from ._run import REACH_STEPS as REACH_STEPS
 from ._run import SCAN_CHUNK as SCAN_CHUNK
 from ._run import padded_length as padded_length
 from ._run import run as run

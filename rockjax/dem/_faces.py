@@ -151,6 +151,21 @@ def wall_kinematics(p: DemParams, st: DemState, k: int | jax.Array, motion=None)
     return kin_moving, (0.0, 1.0), (1.0, 0.0), None, (slope, x0_dot, slope_dot, x_pivot, rate)
 
 
+def wall_reach(p: DemParams, st: DemState, reach, motion=None):
+    """Whether a block's back face is within ``reach`` [s] of its return wall: at either end
+    of a back face, the penetration ``delta`` plus ``reach`` times its rate's magnitude is
+    positive (where the wall's force can be nonzero within ``reach`` of now, at the present
+    rate; a step ``dt`` sees the force once ``delta > -|delta_dot| dt / 2``). ``motion``: a
+    moving wall's ``(u_top, v_top)`` now, as :func:`wall_kinematics`."""
+    near = jnp.zeros((), bool)
+    for k in range(p.n):
+        kin = wall_kinematics(p, st, k, motion)[0]
+        for t in span(p, k, wall=True):
+            end = kin(t)
+            near = near | (end[4] + reach * jnp.abs(end[5]) > 0.0)
+    return near
+
+
 def dashpot_blocks(c, moments, e, arm, kappa, ground: bool, once: bool):
     """The dashpot blocks ``c int w r r^T`` of one direction of a face: ``(C_uu, C_ll,
     C_ul)`` (the last two None for the ground), for the upper row ``r_u = (e, a(tau))`` and the

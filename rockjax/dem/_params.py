@@ -3,6 +3,7 @@ assemblies, the time-step rule and its stiffest mode."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import equinox as eqx
@@ -498,11 +499,26 @@ def default_step(p: DemParams, accuracy):
     return steps(p, accuracy)[1]
 
 
-def steps(p: DemParams, accuracy):
-    """``(critical_dt, default_step)`` [s] from one eigenvalue solve."""
+def steps(p: DemParams, accuracy, accuracy_open=None):
+    """``(critical_dt, default_step, open_ratio)`` [s, s, -]: the first two from one eigenvalue
+    solve; ``open_ratio`` >= 1 the step a one-block facade takes while its return wall is out
+    of reach (the rule at ``accuracy_open`` without the wall's springs) over
+    ``default_step`` (1 without ``accuracy_open``, for every other body)."""
     w = omega_max(p)
+    dt = rule(p, w, accuracy)
+    ratio = jnp.ones(())
+    if accuracy_open is not None and p.one_sided and p.n == 1:
+        ratio = jnp.maximum(
+            rule(p, omega_max(dataclasses.replace(p, one_sided=False)), accuracy_open) / dt, 1.0
+        )
+    return 2.0 / w, dt, ratio
+
+
+def rule(p: DemParams, w, accuracy):
+    """The step rule [s]: ``accuracy / (w (1 + zeta))``, ``zeta = beta w / 2``, at most
+    ``DT_SAFETY`` times the stability limit ``2 / w`` (``w`` [rad/s] the highest frequency)."""
     zeta = 0.5 * p.beta * w
-    return 2.0 / w, jnp.minimum(accuracy / (w * (1.0 + zeta)), DT_SAFETY * 2.0 / w)
+    return jnp.minimum(accuracy / (w * (1.0 + zeta)), DT_SAFETY * 2.0 / w)
 
 
 def check_accuracy(accuracy, mode: Mode, joint: Joint) -> float:

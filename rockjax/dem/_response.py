@@ -34,7 +34,7 @@ class AssemblyResponse(eqx.Module):
         d_max: Largest ``|d|`` of each block over the run, between samples too [m].
         energy: Total mechanical energy [J] (kinetic + gravity + overburden + contact springs),
             or None when not requested.
-        dt: The time step used [s].
+        dt: The time step used [s] (a one-block facade's: while its return wall is in reach).
         work_wall: With a moving return wall (``wall_motion``) and ``save=("energy",)``: the
             work done on the blocks by the wall since ``t = 0`` [J], so that
             ``energy - work_wall`` is conserved without damping, slip or ground motion;
@@ -53,6 +53,9 @@ class AssemblyResponse(eqx.Module):
         wall_forces: With ``"forces"`` on return walls (``mode="one_sided"``): the normal
             force of each block's back face on its wall [N] (``time x block``, positive in
             compression; a moving wall's horizontal component); else None.
+        dt_open: A one-block facade's step while its return wall is out of reach [s]
+            (:func:`rockjax.dem.run`, ``n_open``; docs/theory.md, "Time stepping"); None where
+            every step is ``dt``.
 
     The forces are those of the step taken at each sample (the state at the sample, the
     dashpots at the lagged half-step velocity, as ``extras["normal_forces"]`` of
@@ -79,6 +82,7 @@ class AssemblyResponse(eqx.Module):
     shear_forces: Float[Array, "time interface"] | None = None
     restraint_force: Float[Array, " time"] | None = None
     wall_forces: Float[Array, "time block"] | None = None
+    dt_open: Float[Array, ""] | None = None
 
     def to_dataframe(self):
         """The history as a ``pandas.DataFrame``, one row per sample (one run only).
@@ -154,8 +158,9 @@ class AssemblyResponse(eqx.Module):
 def block_response(r: AssemblyResponse, b) -> Response:
     """The :class:`rockjax.Response` of a single block (``b`` its width [m]) from the run of
     the assembly of one it is: the same arrays, block axis dropped; ``extras`` holds ``x``,
-    ``y`` (centroid [m]), ``d_max`` [m], ``dt`` [s] and, as requested, ``normal_forces``,
-    ``shear_forces`` (the base joint's, [N]), ``wall_forces`` and ``work_wall``."""
+    ``y`` (centroid [m]), ``d_max`` [m], ``dt`` [s], a facade's ``dt_open`` [s] and, as
+    requested, ``normal_forces``, ``shear_forces`` (the base joint's, [N]), ``wall_forces``
+    and ``work_wall``."""
 
     def block(x):
         # the block axis dropped; on the host for a concrete run (an eager slice of a device
@@ -171,6 +176,8 @@ def block_response(r: AssemblyResponse, b) -> Response:
             extras[key] = block(value)
     if r.work_wall is not None:
         extras["work_wall"] = r.work_wall
+    if r.dt_open is not None:
+        extras["dt_open"] = r.dt_open
     return Response(
         t=r.t,
         theta=block(r.theta),

@@ -96,7 +96,11 @@ def simulate_dem(
             above the stability limit is refused. Inside a transform, a concrete ``dt`` fixes
             the steps a sample in the program; a traced one makes them data (one program for
             every step; forward mode and ``vmap`` only, a reverse-mode derivative cannot run
-            a loop of traced length), its stability checked in the run.
+            a loop of traced length), its stability checked in the run. A facade of one block
+            steps by ``dt`` only where its return wall is in reach, and elsewhere by the longer
+            open step ``extras["dt_open"]`` (set by its base alone; docs/theory.md, "Time
+            stepping"), scaled with ``dt``; with a concrete ``dt`` inside a transform it steps
+            by ``dt`` throughout.
         accuracy: Accuracy of the default step, ``omega_max dt (1 + zeta)`` [-] (ignored when
             ``dt`` is given); default the mode's ``dt_accuracy`` (``dt_accuracy_sub`` with
             integer ``n_sub``; :data:`DT_ACCURACY`), which puts the first-impact ``e`` within 1e-3 of its converged value
@@ -132,8 +136,8 @@ def simulate_dem(
 
     Returns:
         For a block, a :class:`rockjax.Response` sampled at the record samples (or every
-        ``save_dt``); ``extras`` holds ``x``, ``y`` (centroid [m]), ``d_max`` [m], ``dt`` [s]
-        and the requested outputs; for a facade with ``"energy"`` saved also ``work_wall``
+        ``save_dt``); ``extras`` holds ``x``, ``y`` (centroid [m]), ``d_max`` [m], ``dt`` [s],
+        a facade's ``dt_open`` [s] and the requested outputs; for a facade with ``"energy"`` saved also ``work_wall``
         [J], the work done on the block by the return wall since ``t = 0`` (zero for a fixed
         wall), so that ``energy - work_wall`` is conserved without damping, slip or ground
         motion. For an assembly, an :class:`AssemblyResponse`.
@@ -169,15 +173,20 @@ def simulate_dem(
     # the parameters, the steps and the initial state: one program
     p, steps, st0 = set_up(assembly, beta, mode, joint, phi_deg, accuracy, theta0)
     n_in = steps_per_sample(p, block, steps, beta, beta_max, mode, joint, dt, dt_out, accuracy)
+    traced = is_traced(p, st0, ag, ag_v, top, wall, n_in)
+    # open steps need the steps a sample as data (not a static n_in in a transform: reverse mode)
+    n_in, n_open = (n_in, None) if traced and isinstance(n_in, int) else open_steps(p, steps, n_in)
     step = (np if isinstance(n_in, int) else jnp).asarray(dt_out / n_in)
     dt_out = np.asarray(dt_out)
     program = run_block if single else run
-    if is_traced(p, st0, ag, ag_v, top, wall, step):
+    if traced:
         # inside the caller's jit/vmap/grad: their transform fixes the shapes
         one = not is_batched(p, st0, ag, ag_v, top, wall, step)
         args = (save, throw, top, wall)
-        return program(p, st0, ag, ag_v, step, dt_out, n_in, *args, one_history=one)
-    resp = run_padded(program, p, st0, ag, ag_v, step, dt_out, n_in, save, top, wall, mode.name)
+        return program(p, st0, ag, ag_v, step, dt_out, n_in, *args, one_history=one, n_open=n_open)
+    resp = run_padded(
+        program, p, st0, ag, ag_v, step, dt_out, (n_in, n_open), save, top, wall, mode.name
+    )
     if throw:
         raise_on_failure(int(resp.status))
     return (cut_block if single else cut)(resp, ag.shape[0])
@@ -195,13 +204,28 @@ def simulate_assembly(assembly: Assembly, motion: GroundMotion | None = None, **
     return simulate_dem(assembly, motion, **kw)
 
 
-def run_padded(program, p, st0, ag, ag_v, step, dt_out, n_in, save, top, wall, mode):
+def open_steps(p, steps, n_in):
+    """``(n_in, n_open)``: the steps a sample, and those of a one-block facade while its
+    return wall is out of reach (:func:`rockjax.dem.run`): ``n_in`` over the open ratio of
+    ``steps`` (:func:`rockjax.dem.default_step`'s rule at ``Facade.dt_accuracy_open``),
+    rounded up; ``n_open = None`` for every other body. Ints for an int ``n_in`` and concrete
+    ``steps``, else arrays."""
+    if not (p.one_sided and p.n == 1):
+        return n_in, None
+    ratio = concrete(steps[2])
+    if isinstance(n_in, int) and ratio is not None:
+        return n_in, min(n_in, max(1, math.ceil(n_in / float(ratio) - 1e-9)))
+    n_open = jnp.ceil(n_in / steps[2] - 1e-9).astype(jnp.int32)
+    return n_in, jnp.clip(n_open, 1, n_in)
+
+
+def run_padded(program, p, st0, ag, ag_v, step, dt_out, n_steps, save, top, wall, mode):
     """An eager run of ``program`` (:func:`rockjax.dem.run` or its single block's), padded to
     its bucket (its last sample repeated, which is what the last sample's steps interpolate
     toward anyway) with its length passed as data; the run freezes from there (cut its outputs
     to the record's length on the host). It does not raise: the caller checks its status, as
     a compiled program with error callbacks (``eqx.error_if``) cannot go into the persistent
-    compilation cache."""
+    compilation cache. ``n_steps``: ``(n_in, n_open)`` (:func:`open_steps`)."""
     n_out = ag.shape[0]
     n_pad = padded_length(n_out)
 
@@ -210,8 +234,11 @@ def run_padded(program, p, st0, ag, ag_v, step, dt_out, n_in, save, top, wall, m
 
     args = (p, st0, pad_to(ag, n_pad), pad_to(ag_v, n_pad), step, dt_out)
     # n_in as data: every number of steps a sample (beta, the geometry) runs one program
+    n_in, n_open = n_steps
     args += (np.asarray(n_in, dtype=np.int32), save, False, padded(top), padded(wall))
     kw = dict(n=np.asarray(n_out, dtype=np.int32), one_history=True)
+    if n_open is not None:
+        kw["n_open"] = np.asarray(n_open, dtype=np.int32)
     if program.will_compile(*args, **kw):  # not when in memory or kept on disk
         notice(compile_notice(p, mode, n_pad, save, top, wall))
     return program(*args, **kw)
@@ -290,14 +317,14 @@ def concrete_steps(p, body, steps, beta_max, joint, mode, dt, accuracy):
             with jax.ensure_compile_time_eval():
                 check_params(beta_max, mode, joint, 45.0)
                 _, steps_max, _ = set_up(body, beta_max, mode, joint, 45.0, accuracy, 0.0)
-                return tuple(map(float, steps_max))
+                return float(steps_max[0]), float(steps_max[1])
         except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
             raise ValueError(
                 "beta_max cannot size the time step when the block itself is traced; pass "
                 "dt=rj.stable_dt(block, beta_max) computed outside the transform."
             ) from None
     try:
-        return tuple(map(float, steps))
+        return float(steps[0]), float(steps[1])
     except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
         if dt is not None:
             return None, None  # checked inside the trace (status / error_if)
@@ -318,7 +345,8 @@ def stable_dt(
     accuracy: float | None = None,
 ) -> float:
     """The default DEM time step [s]: stable, and chosen for accuracy (before rounding to
-    divide the record step).
+    divide the record step); a facade's where its return wall is in reach (elsewhere a facade
+    of one block takes longer open steps, :func:`simulate_dem`).
 
     ``accuracy / (omega_max (1 + zeta))`` with ``zeta = beta omega_max / 2``, at most
     ``DT_SAFETY`` times the stability limit ``2 / omega_max``, ``omega_max`` the highest

@@ -97,21 +97,30 @@ def is_hinged(assembly: Assembly, theta0) -> bool:
 
 
 def set_up(body: Block | Assembly, beta, mode: Mode, joint: Joint, phi_deg, accuracy, theta0):
-    """``(p, (critical_dt, default_step), st0)``: :func:`rockjax.dem.dem_params`, the steps
-    (:func:`rockjax.dem.default_step`) and :func:`initial_state` of inputs already checked
+    """``(p, (critical_dt, default_step, open_ratio), st0)``: :func:`rockjax.dem.dem_params`,
+    the steps (:func:`rockjax.dem.default_step`; the open ratio of ``rockjax.dem._params.steps``) and :func:`initial_state` of inputs already checked
     (``phi_deg`` given), as one compiled program: a run's set-up compiles once with its
     solver, not as three programs."""
     assembly = as_assembly(body)
-    args = params_args(assembly, beta, mode, phi_deg) + strong_scalars((accuracy, theta0))
+    # a facade's step with its return wall out of reach, at the accuracy a parapet's takes
+    # relative to its mode's (the same ratio when accuracy is given: both steps scale alike)
+    if joint.face:
+        open_accuracy = accuracy * mode.dt_accuracy_open / mode.dt_accuracy
+    else:
+        open_accuracy = accuracy * mode.dt_accuracy_open_sub / mode.dt_accuracy_sub
+    args = params_args(assembly, beta, mode, phi_deg)
+    args += strong_scalars((accuracy, open_accuracy, theta0))
     options = params_options(mode, joint)
     return set_up_program(*args, hinge=is_hinged(assembly, theta0), **options)
 
 
 @persistent_jit
-def set_up_program(assembly, beta, gap, phi_deg, accuracy, theta0, *, one_sided, joint, hinge):
+def set_up_program(
+    assembly, beta, gap, phi_deg, accuracy, open_accuracy, theta0, *, one_sided, joint, hinge
+):
     """:func:`set_up`'s program."""
     p = build_params(assembly, beta, gap, phi_deg, one_sided=one_sided, joint=joint)
-    return p, steps(p, accuracy), settled(assembly, p, theta0, hinge)
+    return p, steps(p, accuracy, open_accuracy), settled(assembly, p, theta0, hinge)
 
 
 # Compiled: one call instead of ~30 eager operations (~0.5 ms a call).

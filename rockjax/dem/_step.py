@@ -71,6 +71,7 @@ def step(
     top_motion=None,
     wall=None,
     one_history: bool = False,
+    dt_next=None,
 ):
     """One central-difference step of the blocks with centred dashpots,
     ``(M + dt/2 C) a_n = F`` (un-jitted: the drivers scan it).
@@ -94,6 +95,10 @@ def step(
         one_history: The step of one history, not of a batch (``vmap``): the faces' end
             kinematics are computed as one XLA computation (a driver's choice, docs/assemblies.md
             "Performance").
+        dt_next: The step that follows [s] where it differs from ``dt`` (the step that led to
+            ``st``, which the forces use): the velocities are kicked by ``(dt + dt_next) / 2``
+            and the positions drift by ``dt_next`` (central differences with a variable step,
+            second order); None: ``dt``.
 
     Returns:
         ``(new, acc, power, forces)``: the state at ``n + 1``; the accelerations
@@ -107,7 +112,7 @@ def step(
     if not isinstance(st.x, tuple):  # a state in the array layout: stepped as its scalars
         new, acc, power, forces = step(
             p, as_tuples(st), ag, ag_v, dt, load=load, top_motion=top_motion, wall=wall,
-            one_history=one_history,
+            one_history=one_history, dt_next=dt_next,
         )  # fmt: skip
         return as_arrays(new), acc, power, forces
     ldl = one_history or p.n <= LDL_BATCH_MAX_BLOCKS
@@ -166,7 +171,7 @@ def step(
     new = {f: [] for f in (*STATE_FIELDS, "d_max")}
     for k in range(n):
         ax, ay, aw = acc[k]
-        fields = advance(*(getattr(st, f)[k] for f in STATE_FIELDS), ax, ay, aw, dt)
+        fields = advance(*(getattr(st, f)[k] for f in STATE_FIELDS), ax, ay, aw, dt, dt_next)
         for f in STATE_FIELDS:
             new[f].append(fields[f])
         if st.d_max:  # the top displacement at step n (tracked where the driver asks)
@@ -184,14 +189,19 @@ def step(
     return out, acc, power, forces
 
 
-def advance(x, y, c, s, vx, vy, w, theta, theta_max, ax, ay, aw, dt) -> dict:
+def advance(x, y, c, s, vx, vy, w, theta, theta_max, ax, ay, aw, dt, dt_next=None) -> dict:
     """A block's (or, as arrays, every block's) :data:`STATE_FIELDS` at step ``n + 1`` from
     those at ``n`` and the accelerations ``ax, ay, aw`` [m/s^2, rad/s^2]: central differences,
     and ``cos``/``sin`` of theta turned by the exact rotation through ``dtheta = dt w`` (its
-    cosine and sine as Taylor series, module docstring)."""
-    vx = vx + dt * ax
-    vy = vy + dt * ay
-    w = w + dt * aw
+    cosine and sine as Taylor series, module docstring). With ``dt_next`` (the next step,
+    where it differs from ``dt``): the velocities kicked by ``(dt + dt_next) / 2`` and the
+    positions moved by ``dt_next``."""
+    kick = dt
+    if dt_next is not None:
+        kick, dt = 0.5 * (dt + dt_next), dt_next
+    vx = vx + kick * ax
+    vy = vy + kick * ay
+    w = w + kick * aw
     dth = dt * w
     d2 = dth * dth
     cd = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0 - d2 / 720.0))

@@ -219,6 +219,8 @@ def chunk_runs(
             "status": r.status.astype(jnp.int32),
         } | heel
 
-    if not model.rigid:
-        return jax.vmap(one)(rec_idx, scale)
-    return batch_runs(one, rec_idx, scale)  # on CPU one run after another (much faster)
+    if model.rigid or (mode.one_sided and not isinstance(block, Assembly)):
+        # on CPU one run after another (much faster): Housner's passes, and a DEM facade's
+        # samples in open or closed steps (rockjax.dem.run, n_open), are taken per run
+        return batch_runs(one, rec_idx, scale)
+    return jax.vmap(one)(rec_idx, scale)
