@@ -18,9 +18,11 @@ inner scan: as fast, measured in benchmarks/bench_compile.py ``--dem-loop``), so
 
 Open steps: a facade of one block takes each sample whose start is out of reach of its return
 wall in open steps of ``dt_out / n_open`` (the step rule without the wall's springs), without
-the wall's face, and from the first state in reach on in steps of at most ``dt``
-(:func:`run`, ``n_open``; docs/theory.md, "Time stepping"). A run that has collapsed or failed
-takes one step a sample. Both need the steps a sample as data (their loops' trip counts).
+the wall's face; a sample that starts in reach, or whose open steps reach a state in reach, is
+taken from its start in steps of ``dt`` (:func:`run`, ``n_open``; docs/theory.md, "Time
+stepping"). Under ``vmap`` a batch takes, each sample, the open steps if any of its runs does
+and the steps of ``dt`` if any does. A run that has collapsed or failed takes one step a
+sample. Both need the steps a sample as data (their loops' trip counts).
 """
 
 from __future__ import annotations
@@ -243,8 +245,9 @@ def run(
             # a sample whose start is out of reach of the return wall in open steps (the
             # step without the wall's face: the wall's force is zero there), unless a state
             # they reach is in reach; then, as a sample that starts in reach, in steps of dt
-            # from its start (module docstring, "Open steps"). Two loops with traced trip counts: one run
-            # skips what it does not take; under vmap a run waits, masked, for the others
+            # from its start (module docstring, "Open steps"). Two loops with traced trip
+            # counts: one run skips what it does not take; under vmap a run waits, masked,
+            # for the others
             dt_o = dt_out / n_open
             w_in = carry[3] if work else zero
             # the first step, at the sample time (what the sample records), and its state

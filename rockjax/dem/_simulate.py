@@ -137,10 +137,10 @@ def simulate_dem(
     Returns:
         For a block, a :class:`rockjax.Response` sampled at the record samples (or every
         ``save_dt``); ``extras`` holds ``x``, ``y`` (centroid [m]), ``d_max`` [m], ``dt`` [s],
-        a facade's ``dt_open`` [s] and the requested outputs; for a facade with ``"energy"`` saved also ``work_wall``
-        [J], the work done on the block by the return wall since ``t = 0`` (zero for a fixed
-        wall), so that ``energy - work_wall`` is conserved without damping, slip or ground
-        motion. For an assembly, an :class:`AssemblyResponse`.
+        a facade's ``dt_open`` [s] and the requested outputs; for a facade with ``"energy"``
+        saved also ``work_wall`` [J], the work done on the block by the return wall since
+        ``t = 0`` (zero for a fixed wall), so that ``energy - work_wall`` is conserved without
+        damping, slip or ground motion. For an assembly, an :class:`AssemblyResponse`.
 
     Raises:
         ValueError: on invalid input, with the value, its unit and the fix.

@@ -98,12 +98,13 @@ def is_hinged(assembly: Assembly, theta0) -> bool:
 
 def set_up(body: Block | Assembly, beta, mode: Mode, joint: Joint, phi_deg, accuracy, theta0):
     """``(p, (critical_dt, default_step, open_ratio), st0)``: :func:`rockjax.dem.dem_params`,
-    the steps (:func:`rockjax.dem.default_step`; the open ratio of ``rockjax.dem._params.steps``) and :func:`initial_state` of inputs already checked
-    (``phi_deg`` given), as one compiled program: a run's set-up compiles once with its
+    the steps (:func:`rockjax.dem.default_step`; a one-block facade's open step over it) and
+    :func:`initial_state` of inputs already checked (``phi_deg`` given), as one compiled
+    program: a run's set-up compiles once with its
     solver, not as three programs."""
     assembly = as_assembly(body)
-    # a facade's step with its return wall out of reach, at the accuracy a parapet's takes
-    # relative to its mode's (the same ratio when accuracy is given: both steps scale alike)
+    # a facade's step with its return wall out of reach: its mode's open accuracy, scaled
+    # with a given accuracy (both steps scale alike)
     if joint.face:
         open_accuracy = accuracy * mode.dt_accuracy_open / mode.dt_accuracy
     else:
