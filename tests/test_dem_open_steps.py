@@ -22,8 +22,10 @@ DT_OUT = 0.005  # [s]
 
 SAME_TOL = 1e-12  # [rad]: the same steps, the first one's length changed at rest (measured
 # 1.4e-14 rad)
-PEAK_RTOL = 2e-3  # [-] of the peak d/b against a 4x finer uniform step: the uniform default
-# step's own error on these records is 1.6e-5-2.2e-3 (docs/verification.md, "Open steps")
+PEAK_RTOL = 2e-3  # [-] of the peak d/b against a 4x finer uniform step: on these four runs
+# the uniform default step errs by 3.9e-5-4.2e-4 and the open steps by 5.2e-5-4.3e-4
+# (measured); over 103 rocking far-field runs the uniform step's median error is 6.3e-4
+# (docs/verification.md, "Open steps")
 
 
 def uniform(motion, dt, mode):
@@ -73,7 +75,7 @@ def records():
 def test_open_steps_converged_on_records(records, index, pga_g):
     """The peak d/b of far-field records (facade 1 mm off its wall, rocking to 0.05-0.4 b and
     standing) within ``PEAK_RTOL`` of a uniform step four times finer than the default.
-    Screened for conditioning: the uniform default step is within 3e-4 of it on each."""
+    Screened for conditioning: the uniform default step is within 4.2e-4 of it on each."""
     rec = records[index]
     gm = rj.GroundMotion(ag=rec.ag * pga_g, dt=rec.dt)
     mode = rj.Facade(gap=0.001)
