@@ -207,6 +207,10 @@ def run(
         halt = overturned | (status != STATUS_OK)
         dt_prev = carry[-1] if sub else dt  # the step that led to st
 
+        def wall_at(j, n):
+            """A moving wall's ``(u_top, v_top)`` at step ``j`` of ``n`` (None: fixed)."""
+            return (p0 + j * (p1 - p0) / n, q0 + j * (q1 - q0) / n) if moving else None
+
         def substep(s_, j, n, h, h_next=None, p_=p):
             """The ``j``-th of ``n`` steps of ``h`` in the sample (``h_next``: the next step
             where it differs, :func:`rockjax.dem.step`): the new state, the values the sample
@@ -214,7 +218,7 @@ def run(
             element by element, each element's fusion recomputing the step) and a moving
             wall's power."""
             tm = None if top is None else (u0 + j * (u1 - u0) / n, w0 + j * (w1 - w0) / n)
-            wm = (p0 + j * (p1 - p0) / n, q0 + j * (q1 - q0) / n) if moving else None
+            wm = wall_at(j, n)
             ag_j, agv_j = a0 + j * (a1 - a0) / n, v0 + j * (v1 - v0) / n
             if vec:
                 s_, acc, power, rec = step_stacked(p, s_, ag_j, agv_j, h, top_motion=tm, wall=wm)
@@ -237,9 +241,6 @@ def run(
                 if p.one_sided:
                     flat += [rec["wall"]] if vec else rec["wall"]
             return s_, flat, power
-
-        def wall_at(j, n):
-            return (p0 + j * (p1 - p0) / n, q0 + j * (q1 - q0) / n) if moving else None
 
         if sub:
             # a sample whose start is out of reach of the return wall in open steps (the
