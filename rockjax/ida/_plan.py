@@ -28,8 +28,10 @@ xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
 CHUNK_PER_DEVICE = 64
 """Default runs per compiled batch on each device, the fastest measured: the far-field IDA of
 the 0.2 x 1.5 m block (880 runs, one device) took 7.9 s warm in chunks of 256, 5.2 s in chunks
-of 128 and 5.1 s in chunks of 64 as a parapet, and 103, 76 and 74 ms a run as a facade
-(docs/benchmarks.md, "IDA: chunk size and devices")."""
+of 128 and 5.1 s in chunks of 64 as a parapet, and 103, 76 and 74 ms a run as a facade, when
+facades still ran as a ``vmap`` batch (they now run one after another on CPU, where a chunk's
+size only sets how many runs one compiled call takes; docs/benchmarks.md, "IDA: chunk size
+and devices")."""
 
 
 class Chunk(NamedTuple):
