@@ -8,8 +8,9 @@ study runs the FEMA P695 far-field set (44 components, each normalised to PGA = 
 PGAs (0.05-2 g, geometric) on the 0.2 x 1.5 m block with a 1 mm gap (``rj.Facade(gap=0.001)``) at its calibrated ``beta``:
 
 1. **Cost**: the same IDA as a parapet, as a facade at the default step, and with Housner,
-   each timed on its second call (warm: compiled). Run it with another checkout on
-   ``PYTHONPATH`` to time that code alike.
+   each timed on its second call (warm: compiled), with its chunks in threads (the default,
+   ``rockjax.ida.host_threads``) and one at a time (``devices`` named). Run it with another
+   checkout on ``PYTHONPATH`` to time that code alike.
 2. **Step**: the facade IDA at ``accuracy`` 0.35 (the default), 0.7 and 1.0 against a
    reference at 0.175 (half the default step): the share of runs whose collapse flag agrees,
    and the error of the peak ``d/b`` of the runs that stand in both, relative to the
@@ -31,9 +32,11 @@ import os
 import pathlib
 import time
 
+import jax
 import numpy as np
 
 import rockjax as rj
+from rockjax.ida import host_threads
 
 BLOCK = rj.Block(b=0.2, h=1.5)
 GAP = 0.001  # [m]
@@ -61,9 +64,12 @@ def beta_of(out: pathlib.Path, mode) -> float:
     return float(fit.beta)
 
 
-def ida(recs, scales, model, mode, chunk_size=None):
+def ida(recs, scales, model, mode, chunk_size=None, devices=None):
     t0 = time.perf_counter()
-    ds = rj.ida(BLOCK, recs, scales, model=model, mode=mode, chunk_size=chunk_size, progress=False)
+    ds = rj.ida(
+        BLOCK, recs, scales, model=model, mode=mode, chunk_size=chunk_size, progress=False,
+        devices=devices,
+    )  # fmt: skip
     return ds, time.perf_counter() - t0
 
 
@@ -111,11 +117,18 @@ def main() -> None:
         ("facade Housner", rj.Housner(), facade.without_gap(), None),  # flush on its walls
     ):
         _, first = ida(recs, scales, model, mode, chunk)
-        _, warm = ida(recs, scales, model, mode, chunk)
-        cost[name] = {"first_s": first, "warm_s": warm}
-        print(f"  {name:<26} first call {first:7.1f} s, warm {warm:7.1f} s", flush=True)
+        ds, warm = ida(recs, scales, model, mode, chunk)
+        # the chunks one at a time (devices named), as before they ran in threads
+        one, serial = ida(recs, scales, model, mode, chunk, devices=jax.local_devices())
+        same = bool(one.drop_attrs().identical(ds.drop_attrs()))
+        cost[name] = {"first_s": first, "warm_s": warm, "one_thread_s": serial, "same": same}
+        print(
+            f"  {name:<26} first call {first:7.1f} s, warm {warm:7.1f} s; one chunk at a "
+            f"time {serial:7.1f} s ({serial / warm:.2f}x; results identical: {same})",
+            flush=True,
+        )
     ratio = cost["facade DEM"]["warm_s"] / cost["parapet DEM"]["warm_s"]
-    print(f"  facade / parapet (warm): {ratio:.2f}x", flush=True)
+    print(f"  facade / parapet (warm): {ratio:.2f}x; threads {host_threads()}", flush=True)
     summary["cost"] = cost
     if args.cost:
         print(f"load at end {load()}")

@@ -55,6 +55,7 @@ import os
 import pickle
 import re
 import sys
+import threading
 import warnings
 from collections.abc import Hashable
 from pathlib import Path
@@ -647,7 +648,8 @@ def persistent_jit(fn):
         sources["exported"] += 1
         try:
             folder.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            # (one name per process and thread: two threads may keep one program at once)
+            tmp = path.with_suffix(f".{os.getpid()}-{threading.get_ident()}.tmp")
             tmp.write_bytes(blob)
             os.replace(tmp, path)  # whole or absent, for processes sharing the folder
         except OSError as err:  # a read-only cache: this process keeps the program in memory
@@ -664,11 +666,13 @@ def persistent_jit(fn):
     def signed(args, kwargs):
         """:func:`signature`, the one will_compile just computed for these very arguments
         taken instead of computed again (it costs about 0.5 ms for the DEM's)."""
-        if last:
+        try:  # (another thread may have taken it)
             a, k, sig = last.pop()
-            if len(a) == len(args) and all(x is y for x, y in zip(a, args)):
-                if k.keys() == kwargs.keys() and all(k[n] is kwargs[n] for n in k):
-                    return sig
+        except IndexError:
+            return signature(args, kwargs)
+        if len(a) == len(args) and all(x is y for x, y in zip(a, args)):
+            if k.keys() == kwargs.keys() and all(k[n] is kwargs[n] for n in k):
+                return sig
         return signature(args, kwargs)
 
     def will_compile(*args, **kwargs) -> bool:

@@ -1,11 +1,15 @@
 """Tests of rockjax.ida: batched IDA against single runs, chunking, per-run status,
 collapse intervals, the uplift threshold and the NetCDF round trip."""
 
+import os
+
+import jax
 import numpy as np
 import pytest
 import xarray as xr
 
 import rockjax as rj
+from rockjax.ida import host_threads
 from rockjax.constants import G
 from rockjax.response import STATUS_BAD_INPUT, STATUS_NONFINITE, STATUS_OK
 
@@ -212,6 +216,23 @@ def test_invalid_records():
         rj.ida(block, [rec, rec], model=rj.Housner(), progress=False)
 
 
+@pytest.mark.parametrize("mode", ["two_sided", "one_sided"])
+def test_chunks_in_threads_give_the_same_results_to_the_bit(monkeypatch, mode):
+    """Reference: the same IDA one chunk at a time (devices named: one thread). By default, on
+    a host CPU, the chunks run in one thread per core (here three, with several chunks at once
+    in each): the parapet's vmap batches, the facade's and Housner's runs one after another."""
+    block = rj.Block(**SMALL)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda _: {0, 1, 2}, raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 3)
+    assert host_threads() == 3
+    for model in (rj.DEM(beta=BETA), rj.Housner()):
+        m = rj.as_mode(mode) if model.name == "dem" else rj.as_mode(mode).without_gap()
+        kw = dict(model=model, mode=m, tail=0.5, chunk_size=1, progress=False)
+        threaded = rj.ida(block, _records(), SCALES, **kw)
+        one = rj.ida(block, _records(), SCALES, devices=jax.local_devices(), **kw)
+        xr.testing.assert_identical(threaded.drop_attrs(), one.drop_attrs())
+
+
 _SHARDED = """
 import os
 os.environ["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "") + " --xla_force_host_platform_device_count=2"
@@ -295,8 +316,11 @@ def test_progress_bar_per_chunk(dem_ds, capsys):
     ds = rj.ida(block, _records(), SCALES, progress=True, **kw)
     err = capsys.readouterr().err
     assert "rockjax.ida" in err and "8/8" in err and "chunk 4/4, dt = 0.005 s" in err, err
-    assert "compiling" in err  # the first chunk of each dt group says it may compile
+    assert "compiling" not in err  # dem_ds compiled these chunks' programs
     xr.testing.assert_identical(ds.drop_attrs(), dem_ds.drop_attrs())
+    # a chunk that compiles (a new chunk size) says so while it runs
+    rj.ida(block, _records(), SCALES, progress=True, **(kw | dict(chunk_size=5)))
+    assert "compiling" in capsys.readouterr().err
     rj.ida(block, _records(), SCALES, **kw)  # progress=None: stderr is no terminal here
     assert capsys.readouterr().err == ""
 

@@ -9,9 +9,10 @@ several blocks in a building (an :class:`rockjax.Assembly` with ``support_motion
 and ``storey=``) stands on its floor and is held by the floor above. The building is linear:
 its response is solved once per record and scaled with the record in every run. The pairs are
 flattened and run in chunks of ``chunk_size`` (default :data:`CHUNK_PER_DEVICE` per device): one compiled batch per chunk from a Python
-loop, which bounds the memory and lets a progress bar advance between chunks (DEM runs are
-vmapped; Housner runs go through :func:`rockjax.housner.batch_runs`, one after another on
-CPU). The last chunk is padded (with
+loop, which bounds the memory and lets a progress bar advance between chunks (DEM parapets and
+walls of several blocks are vmapped; Housner runs and DEM facades of one block go through
+:func:`rockjax.housner.batch_runs`, one after another on CPU). On a host CPU the chunks run in
+:func:`host_threads` threads at once, each on its own core. The last chunk is padded (with
 zero-scale runs of the first record, dropped afterwards) to the same shape, so the batch
 compiles once.
 
@@ -57,3 +58,4 @@ from ._config import run_config as run_config
 from ._intervals import CollapseIntervals as CollapseIntervals
 from ._intervals import collapse_intervals as collapse_intervals
 from ._plan import CHUNK_PER_DEVICE as CHUNK_PER_DEVICE
+from ._plan import host_threads as host_threads

@@ -18,7 +18,7 @@ from ..modes import Mode, as_mode
 from ..motion import GroundMotion
 from ._config import DEFAULT_SCALES, gap_unused
 from ._dataset import to_dataset
-from ._plan import make_plan, placement_on
+from ._plan import host_threads, make_plan, placement_on
 from ._run import run_plan
 
 xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
@@ -86,8 +86,11 @@ def ida(
         devices: Devices to split each chunk over (its runs split evenly, the records
             replicated; ``jax.shard_map``: each device runs its share as a batch of its own,
             host CPU devices each on a core); default every local device. With one device the
-            chunks run as they are. The chunk size is rounded up to a multiple of the device
-            count. Results do not depend on it beyond round-off (tests/test_ida.py).
+            chunks run as they are, and by default, on a host CPU, as many at once as the
+            process may use cores (``rockjax.ida.host_threads``; named devices run one chunk
+            at a time, as a campaign's single-core workers want). The chunk size is rounded up
+            to a multiple of the device count. Results do not depend on it beyond round-off,
+            nor on the threads at all (tests/test_ida.py).
         wall_motion: One-sided only: a :class:`rockjax.ShearBuilding` whose response to each
             scaled record moves the facade's return walls (``wall_motion=`` of the
             simulators; taken at the block's height, or an assembly's whole height); its
@@ -124,7 +127,12 @@ def ida(
         ValueError: on invalid input, with the value, its unit and the fix.
     """
     model, mode = _convert(block, model, mode, deprecated)
-    devices = list(jax.local_devices() if devices is None else devices)
+    threads = 1
+    if devices is None:
+        devices = jax.local_devices()
+        if len(devices) == 1 and devices[0].platform == "cpu":
+            threads = host_threads()
+    devices = list(devices)
     if not devices:
         raise ValueError("devices must name at least one device, e.g. jax.local_devices().")
     plan = make_plan(
@@ -142,7 +150,7 @@ def ida(
         support_motion=support_motion,
         storey=storey,
     )
-    grids = run_plan(plan, placement_on(devices), progress)
+    grids = run_plan(plan, placement_on(devices, threads), progress)
     return to_dataset(plan, grids)
 
 

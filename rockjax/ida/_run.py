@@ -3,6 +3,8 @@ solved once per record."""
 
 from __future__ import annotations
 
+import collections
+import concurrent.futures
 import functools
 import math
 
@@ -42,13 +44,10 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
     block = strong_scalars(plan.block)
     walls: dict[float, tuple] = {}
     supports: dict[float, tuple] = {}
-    for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
-        # the first chunk of a dt group compiles: say so while it runs
-        first = g.dt not in seen
-        seen.add(g.dt)
-        bar.set_postfix_str(
-            f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s" + (", compiling" if first else "")
-        )
+
+    def prepare(g, k, size, n_runs_g):
+        """A chunk's inputs, placed: ``(chunk, options, local, j, real)``, :func:`run_chunk`'s
+        arguments and the chunk's records (local to its group), scales and real runs."""
         flat = np.arange(k * size, (k + 1) * size)
         real = flat < n_runs_g
         flat = np.where(real, flat, 0)  # padding: repeats of the group's first run, dropped
@@ -90,18 +89,47 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
         steps = max(1, math.ceil(g.dt / plan.config["dt_bound"] - 1e-9))
         dt_bound = g.dt / steps if model.rigid else np.asarray(g.dt / steps)
         chunk = (block, ag, ag_v, rec_k, scale_k, wall, support)
-        out = run_chunk(
-            *chunk, model=model, mode=mode, dt_rec=g.dt, dt_bound=dt_bound, mesh=place.mesh
-        )
-        out = jax.device_get(out)
+        options = dict(model=model, mode=mode, dt_rec=g.dt, dt_bound=dt_bound, mesh=place.mesh)
+        return chunk, options, local, j, real
+
+    # the chunks run in place.threads threads at once (rockjax.ida.host_threads: each on a
+    # core of a host CPU); a chunk that compiles runs alone (the others would compile its
+    # program again), and the bar says so
+    jobs: collections.deque = collections.deque()
+
+    def collect():
+        future, index, local, j, real = jobs.popleft()
+        out = future.result()
         if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
             grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
         for key in grids:
-            grids[key][g.index[local[real]], j[real]] = np.asarray(out[key])[real]
-        bar.set_postfix_str(f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s", refresh=False)
+            grids[key][index[local[real]], j[real]] = np.asarray(out[key])[real]
         bar.update(int(real.sum()))
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=place.threads) as pool:
+        for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
+            first = g.dt not in seen
+            seen.add(g.dt)
+            while len(jobs) >= place.threads:
+                collect()
+            chunk, options, local, j, real = prepare(g, k, size, n_runs_g)
+            alone = first and run_chunk.will_compile(*chunk, **options)
+            bar.set_postfix_str(
+                f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s"
+                + (", compiling" if alone else "")
+            )
+            jobs.append((pool.submit(outputs, chunk, options), g.index, local, j, real))
+            while alone and jobs:
+                collect()
+        while jobs:
+            collect()
     bar.close()
     return grids
+
+
+def outputs(chunk: tuple, options: dict) -> dict[str, np.ndarray]:
+    """A chunk's EDPs (:func:`run_chunk`), on the host."""
+    return jax.device_get(run_chunk(*chunk, **options))
 
 
 @persistent_jit
