@@ -9,8 +9,8 @@ import pytest
 import xarray as xr
 
 import rockjax as rj
-from rockjax.ida import host_threads
 from rockjax.constants import G
+from rockjax.ida import host_threads
 from rockjax.response import STATUS_BAD_INPUT, STATUS_NONFINITE, STATUS_OK
 
 BATCH_RTOL = 1e-12
