@@ -9,7 +9,10 @@ restitution ``e_H`` (``rj.fit_beta(block, e=rj.e_housner(block))``, 2.5-6 times 
 larger default step), under every second component of the FEMA P695
 far-field set (22, each normalised to PGA = 1 g) at PGAs from below the quasi-static uplift
 acceleration ``g b / h`` to about three times it, through ``rj.ida``, at ``accuracy`` 1.0 (the
-default), 0.7 and 0.5, against a reference at 0.25 (a quarter of the default step).
+default), 0.7 and 0.5, and 1.8 (where ``omega_max dt`` at ``beta_DeJong`` is what the
+default gives at the fitted ``beta``), against a reference at 0.25 (a quarter of the default
+step). Each fitted ``beta`` runs again rounded to four digits: the largest errors come from a
+few runs near a bifurcation, which a change of ``beta`` in its fifth digit moves.
 
 Rocking under a record is chaotic near overturning: a run whose reference is not converged
 says nothing about the default. So the reference is screened for conditioning: a run counts
@@ -20,7 +23,8 @@ It prints, per block, ``beta`` and accuracy, the conditioned runs whose collapse
 from the reference's, and the relative error of the peak ``d/b`` of the conditioned runs
 that stand in both, in two bands of the reference's peak: ``d/b >= 0.01`` (rocking) and
 ``0.001 <= d/b < 0.01`` (at the uplift threshold): median, 95th percentile, largest, and the
-record and PGA of the largest; and the same over every run, unscreened. Quoted in
+record and PGA of the largest, and how many are off by more than 5 %; and the same over every
+run, unscreened. Quoted in
 docs/verification.md ("Parapets on records: the default step").
 
     python experiments/parapet_step_records.py [--out experiments/results/parapet_step_records]
@@ -40,7 +44,7 @@ import rockjax as rj
 
 BLOCKS = {"0.2 x 1.5 m": rj.Block(b=0.2, h=1.5), "0.25 x 3 m": rj.Block(b=0.25, h=3.0)}
 UPLIFT_MULTIPLES = np.array([0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 3.0])  # x the uplift PGA g b / h
-ACCURACIES = (1.0, 0.7, 0.5)
+ACCURACIES = (1.8, 1.0, 0.7, 0.5)  # 1.8: omega_max dt at beta_DeJong as at the fitted beta
 REFERENCE_ACCURACY = 0.25
 CHECK_ACCURACY = 0.125  # half the reference's step: screens the reference
 CONDITIONED = 1e-3
@@ -73,6 +77,7 @@ def compare(ds, ref, band, keep) -> dict:
         i, j = np.unravel_index(np.nanargmax(err), err.shape)
         e = err[sel]
         out |= {
+            "over_5pct": int(np.sum(e > 0.05)),
             "median": float(np.median(e)),
             "p95": float(np.percentile(e, 95)),
             "max": float(e.max()),
@@ -96,6 +101,9 @@ def main() -> None:
         fit = rj.fit_beta(block, e=rj.e_housner(block))
         cases.append((f"{name}, beta_DeJong", block, float(rj.beta_dejong(block))))
         cases.append((f"{name}, beta fitted to e_H", block, float(fit.beta)))
+        # the same rounded to 4 digits: how much the tail hangs on a few runs near a bifurcation
+        rounded = float(f"{float(fit.beta):.4g}")
+        cases.append((f"{name}, beta fitted to e_H rounded to {rounded:.4g} s", block, rounded))
     for name, block, beta in cases:
         pgas = UPLIFT_MULTIPLES * block.b / block.h  # [g]
         print(f"{name}: beta {beta:.4g} s, PGA {np.round(pgas, 3).tolist()} g", flush=True)
@@ -124,7 +132,7 @@ def main() -> None:
                 label = label + ("" if screened else ", unscreened")
                 rows[str(acc)][label] = row
                 stats = (
-                    f"median {row['median']:.1e}, p95 {row['p95']:.1e}, max {row['max']:.1e} "
+                    f"{row['over_5pct']} off by > 5 %; median {row['median']:.1e}, p95 {row['p95']:.1e}, max {row['max']:.1e} "
                     f"({row['worst']}: d/b {row['worst_d_over_b'][0]:.4f} against "
                     f"{row['worst_d_over_b'][1]:.4f})"
                     if row["runs"]
