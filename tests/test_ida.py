@@ -318,8 +318,9 @@ def test_progress_bar_per_chunk(dem_ds, capsys):
     assert "rockjax.ida" in err and "8/8" in err and "chunk 4/4, dt = 0.005 s" in err, err
     assert "compiling" not in err  # dem_ds compiled these chunks' programs
     xr.testing.assert_identical(ds.drop_attrs(), dem_ds.drop_attrs())
-    # a chunk that compiles (a new chunk size) says so while it runs
-    rj.ida(block, _records(), SCALES, progress=True, **(kw | dict(chunk_size=5)))
+    # a chunk that compiles (a joint no other test runs, a new chunk size) says so while it runs
+    model = rj.DEM(beta=BETA, joint=rj.Joint(n_sub=5))
+    rj.ida(block, _records(), SCALES, progress=True, **(kw | dict(chunk_size=5, model=model)))
     assert "compiling" in capsys.readouterr().err
     rj.ida(block, _records(), SCALES, **kw)  # progress=None: stderr is no terminal here
     assert capsys.readouterr().err == ""

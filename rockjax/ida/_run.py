@@ -119,8 +119,10 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
                 + (", compiling" if alone else "")
             )
             jobs.append((pool.submit(outputs, chunk, options), g.index, local, j, real))
-            while alone and jobs:
-                collect()
+            if alone:
+                while jobs:
+                    collect()
+                bar.set_postfix_str(f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s")
         while jobs:
             collect()
     bar.close()
