@@ -147,8 +147,8 @@ def host_threads() -> int:
     """The chunks an IDA runs at once on one host CPU device: one per core this process may
     use. Each runs on its own core (one compiled call per Python thread; XLA:CPU runs the calls
     of one thread one after another). Measured on 2 cores, the far-field IDA of the 0.2 x 1.5 m
-    block ran 1.8x faster as a facade and 2.1x as a parapet, with the same results to the bit
-    (docs/benchmarks.md, "IDA: chunks in threads")."""
+    block ran 1.9-2.0x faster as a facade and 1.85-1.9x as a parapet, with the same results to
+    the bit (docs/benchmarks.md, "IDA: chunks in threads")."""
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # (not on every platform)
