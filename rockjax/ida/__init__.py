@@ -11,10 +11,10 @@ its response is solved once per record and scaled with the record in every run. 
 flattened and run in chunks of ``chunk_size`` (default :data:`CHUNK_PER_DEVICE` per device): one compiled batch per chunk from a Python
 loop, which bounds the memory and lets a progress bar advance between chunks (DEM parapets and
 walls of several blocks are vmapped; Housner runs and DEM facades of one block go through
-:func:`rockjax.housner.batch_runs`, one after another on CPU). By default, on a host CPU, the chunks run
-in :func:`host_threads` threads at once, each on its own core. The last chunk is padded (with
-zero-scale runs of the first record, dropped afterwards) to the same shape, so the batch
-compiles once.
+:func:`rockjax.housner.batch_runs`, one after another on CPU). By default, on a host CPU, the
+chunks run in :func:`host_threads` threads at once, each on its own core. The last chunk is
+padded (with zero-scale runs of the first record, dropped afterwards) to the same shape, so
+the batch compiles once.
 
 Records. Every run lasts ``t_end`` = the longest record plus a free-vibration ``tail`` [s]
 (records are zero-padded), so the block can finish its last excursion (or overturn) after the

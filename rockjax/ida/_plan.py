@@ -148,7 +148,10 @@ def host_threads() -> int:
     use. Each runs on its own core (one compiled call per Python thread; XLA:CPU runs the calls
     of one thread one after another). Measured on 2 cores, the far-field IDA of the 0.2 x 1.5 m
     block ran 1.9-2.0x faster as a facade and 1.85-1.9x as a parapet, with the same results to
-    the bit (docs/benchmarks.md, "IDA: chunks in threads")."""
+    the bit (docs/benchmarks.md, "IDA: chunks in threads"). The chunks then run in worker
+    threads, which JAX settings made in the caller's thread by a context manager (e.g.
+    ``jax.debug_nans(True)``) do not reach: set those with ``jax.config.update``, or name
+    ``devices`` (one chunk at a time, in the caller's thread)."""
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # (not on every platform)

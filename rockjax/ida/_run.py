@@ -93,19 +93,20 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
         return chunk, options, local, j, real
 
     # the chunks run in place.threads threads at once (rockjax.ida.host_threads: each on a
-    # core of a host CPU); a chunk that compiles runs alone (the others would compile its
-    # program again), and the bar says so
+    # core of a host CPU; one thread: the caller's); a chunk that compiles runs alone (the
+    # others would compile its program again), and the bar says so
     jobs: collections.deque = collections.deque()
 
     def collect():
-        future, index, local, j, real = jobs.popleft()
-        out = future.result()
+        job, index, local, j, real = jobs.popleft()
+        out = job.result() if isinstance(job, concurrent.futures.Future) else job
         if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
             grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
         for key in grids:
             grids[key][index[local[real]], j[real]] = np.asarray(out[key])[real]
         bar.update(int(real.sum()))
 
+    threaded = place.threads > 1
     with concurrent.futures.ThreadPoolExecutor(max_workers=place.threads) as pool:
         for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
             first = g.dt not in seen
@@ -118,7 +119,8 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
                 f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s"
                 + (", compiling" if alone else "")
             )
-            jobs.append((pool.submit(outputs, chunk, options), g.index, local, j, real))
+            job = pool.submit(outputs, chunk, options) if threaded else outputs(chunk, options)
+            jobs.append((job, g.index, local, j, real))
             if alone:
                 while jobs:
                     collect()
