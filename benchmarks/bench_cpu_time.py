@@ -3,15 +3,22 @@ less than wall time: one 20 s history under the caller's ``jit`` (0.25 x 3 m and
 ``beta_DeJong``, the face law and two corner contacts), and a ``jit(vmap)`` batch of 1024
 runs of a 2 s record (0.25 x 3 m).
 
-    python benchmarks/bench_cpu_time.py
+    python benchmarks/bench_cpu_time.py [--pin CORE] [--no-batch]
     PYTHONPATH=<another checkout> python benchmarks/bench_cpu_time.py   # that code, alike
 
 Run both, alternated, to compare two versions of the code side by side (docs/benchmarks.md,
-"One kernel for a block and an assembly": single history, batch).
+"One kernel for a block and an assembly": single history, batch). ``--pin CORE`` runs the
+process on that core alone (``os.sched_setaffinity``), so that XLA's threads and other jobs
+do not share it with the history (the batch, which XLA spreads over the cores, is then a
+one-core figure). It does not remove the machine's own noise: on 2026-11-29 pinned runs of
+one version spread by 3 % in one hour and by 20 % in the next, so alternate the versions over
+several rounds. ``--no-batch`` skips the batches.
 """
 
 from __future__ import annotations
 
+import argparse
+import os
 import time
 
 import jax
@@ -35,14 +42,22 @@ def cpu_times(f, x, repeats: int) -> tuple[float, float]:
 
 
 def main() -> None:
-    print(f"rockjax {rj.__file__}")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pin", type=int, default=None, help="run on this core alone")
+    ap.add_argument("--no-batch", action="store_true", help="one history only")
+    args = ap.parse_args()
+    if args.pin is not None:
+        os.sched_setaffinity(0, {args.pin})
+    print(
+        f"rockjax {rj.__file__}" + (f" (pinned to core {args.pin})" if args.pin is not None else "")
+    )
     for b, h in ((0.25, 3.0), (0.2, 1.5)):
         block = rj.Block(b=b, h=h)
         beta = float(rj.beta_dejong(block))
         for joint in (rj.Joint(), rj.Joint(n_sub=2)):
             dt = rj.stable_dt(block, beta, joint=joint)
             for duration, n in ((20.0, 1), (2.0, 1024)):
-                if n > 1 and b != 0.25:
+                if n > 1 and (b != 0.25 or args.no_batch):
                     continue
                 rec = rj.GroundMotion.ricker(pga=3.0, period=0.5, dt=RECORD_DT, duration=duration)
                 ag = jnp.asarray(rec.ag)
