@@ -41,6 +41,7 @@ import time
 import numpy as np
 
 import rockjax as rj
+from rockjax.constants import G
 
 BLOCKS = {"0.2 x 1.5 m": rj.Block(b=0.2, h=1.5), "0.25 x 3 m": rj.Block(b=0.25, h=3.0)}
 UPLIFT_MULTIPLES = np.array([0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 3.0])  # x the uplift PGA g b / h
@@ -81,7 +82,7 @@ def compare(ds, ref, band, keep) -> dict:
             "median": float(np.median(e)),
             "p95": float(np.percentile(e, 95)),
             "max": float(e.max()),
-            "worst": f"{ds['record'].values[i]} at {float(ds['pga_scaled'].values[i, j]) / 9.80665:.3g} g",
+            "worst": f"{ds['record'].values[i]} at {float(ds['pga_scaled'].values[i, j]) / G:.3g} g",
             "worst_d_over_b": [float(d[i, j]), float(d_ref[i, j])],
         }
     return out

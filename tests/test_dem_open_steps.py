@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import rockjax as rj
+from rockjax.constants import G
 
 BLOCK = rj.Block(b=0.2, h=1.5)
 BETA = 3.0e-4  # [s], about the fitted beta of this facade (experiments/facade_ida_step.py)
@@ -42,7 +43,7 @@ def test_open_steps_are_central_differences_off_the_wall():
     """A facade 8 cm off its wall, rocked by a pulse that does not bring it back to the wall
     in 1.5 s, takes open steps only: the history of a uniform run at ``dt_open``."""
     t = np.arange(300) * DT_OUT
-    ag = np.where(t < 0.4, 0.25 * 9.80665 * np.sin(2 * np.pi * t / 0.4), 0.0)
+    ag = np.where(t < 0.4, 0.25 * G * np.sin(2 * np.pi * t / 0.4), 0.0)
     gm = rj.GroundMotion(ag=ag, dt=DT_OUT)
     mode = rj.Facade(gap=0.08)
     r = rj.simulate_dem(BLOCK, gm, beta=BETA, mode=mode)
