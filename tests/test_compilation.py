@@ -70,6 +70,70 @@ def test_pad_repeats_the_last_sample_concrete_or_traced():
         compilation.pad_to(x, 2)
 
 
+def test_cut_undoes_the_padding_in_one_transfer_and_keeps_nones():
+    x = np.arange(6.0)
+    series = {"a": compilation.pad_to(x, 9), "b": None, "c": jnp.asarray(np.arange(18.0) * 2.0)}
+    got = compilation.cut_to(series, 6)
+    np.testing.assert_array_equal(got["a"], x)
+    np.testing.assert_array_equal(got["c"], np.arange(6.0) * 2.0)
+    assert got["b"] is None
+    assert all(isinstance(got[k], jax.Array) for k in ("a", "c"))
+
+
+def test_value_key_tells_values_apart_and_refuses_tracers():
+    key = compilation.value_key
+    assert key((np.float64(0.25), {"k": np.arange(3.0)})) == key(
+        (np.float64(0.25), {"k": np.arange(3.0)})
+    )
+    assert key(np.float64(0.25)) != key(np.float64(0.2500000000000001))
+    assert key(np.arange(3.0)) != key(np.arange(3.0).reshape(3, 1))  # the shape counts
+    assert key(np.arange(3.0)) != key(np.arange(3, dtype=np.float32))  # and the type
+    assert key(rj.Block(b=0.25, h=3.0)) == key(rj.Block(b=0.25, h=3.0))
+    assert key(rj.Joint()) != key(rj.Joint(n_sub=2))  # static fields are in the structure
+    seen = []
+    jax.jit(lambda v: seen.append(key(v)) or v)(1.0)
+    assert seen == [None]
+
+
+def test_memoized_reuses_results_by_value_only():
+    calls = []
+
+    def f(a, *, scale):
+        calls.append(1)
+        return jnp.asarray(a) * scale
+
+    g = compilation.memoized(f, maxsize=2)
+    one = g(np.arange(3.0), scale=2.0)
+    assert g(np.arange(3.0), scale=2.0) is one and len(calls) == 1  # the same values
+    np.testing.assert_array_equal(g(np.arange(3.0) + 1.0, scale=2.0), [2.0, 4.0, 6.0])
+    np.testing.assert_array_equal(g(np.arange(3.0), scale=3.0), [0.0, 3.0, 6.0])
+    assert len(calls) == 3
+    g(np.arange(3.0), scale=2.0)  # evicted (maxsize 2): computed again
+    assert len(calls) == 4
+    # traced arguments run the function
+    np.testing.assert_array_equal(jax.jit(lambda a: g(a, scale=2.0))(np.ones(3)), 2.0 * np.ones(3))
+    assert len(calls) == 5
+
+
+def test_eager_dem_runs_in_a_loop_are_their_own_runs():
+    """The eager run keeps its set-up by value (``memoized``) and its single-block assembly
+    (``as_assembly``): a loop over beta and blocks gives each run the history it gets alone
+    in a fresh call of its own program (a stale set-up would repeat the first run's)."""
+    rec = rj.GroundMotion.ricker(pga=4.0, period=0.4, dt=0.01, duration=1.5)
+    cases = [(0.25, 3.0, 0.01), (0.25, 3.0, 0.02), (0.2, 1.5, 0.01), (0.25, 3.0, 0.01)]
+    got = [rj.simulate_dem(rj.Block(b=b, h=h), rec, beta=beta).theta for b, h, beta in cases]
+    # the block's numbers as JAX arrays (unhashable): no kept assembly, the same runs
+    arrays = [
+        rj.simulate_dem(rj.Block(b=jnp.asarray(b), h=jnp.asarray(h)), rec, beta=beta).theta
+        for b, h, beta in cases
+    ]
+    for a, b_ in zip(got, arrays):
+        np.testing.assert_array_equal(a, b_)
+    assert np.max(np.abs(got[0] - got[1])) > 1e-4  # beta changed the history
+    assert np.max(np.abs(got[0] - got[2])) > 1e-4  # so did the block
+    np.testing.assert_array_equal(got[0], got[3])
+
+
 def test_cache_dir_follows_the_environment(monkeypatch, tmp_path):
     monkeypatch.delenv(compilation.CACHE_ENV, raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))

@@ -11,6 +11,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from .._checks import concrete
+from ..compilation import cut_to
 from ..response import STATUS_MESSAGES, Response, one_run_times
 
 
@@ -199,12 +200,9 @@ def cut(r: AssemblyResponse, n: int) -> AssemblyResponse:
     if r.t.shape[0] == n:
         return r
 
-    def series(x):
-        return None if x is None else jax.device_put(np.asarray(x)[:n])
-
     names = ("t", "theta", "theta_dot", "x", "y", "d", "energy", "work_wall")
     names += ("normal_forces", "shear_forces", "restraint_force", "wall_forces")
-    return dataclasses.replace(r, **{k: series(getattr(r, k)) for k in names})
+    return dataclasses.replace(r, **cut_to({k: getattr(r, k) for k in names}, n))
 
 
 def cut_block(r: Response, n: int) -> Response:
@@ -212,12 +210,9 @@ def cut_block(r: Response, n: int) -> Response:
     if r.t.shape[0] == n:
         return r
 
-    def series(x):
-        return None if x is None else jax.device_put(np.asarray(x)[:n])
-
-    extras = dict(r.extras)
-    for key in ("x", "y", "normal_forces", "shear_forces", "wall_forces", "work_wall"):
-        if key in extras:
-            extras[key] = series(extras[key])
+    keys = ("x", "y", "normal_forces", "shear_forces", "wall_forces", "work_wall")
     names = ("t", "theta", "theta_dot", "d", "energy")
-    return dataclasses.replace(r, extras=extras, **{k: series(getattr(r, k)) for k in names})
+    kept = {f"extras.{k}": r.extras[k] for k in keys if k in r.extras}
+    both = cut_to({**{k: getattr(r, k) for k in names}, **kept}, n)
+    extras = {**r.extras, **{k: both[f"extras.{k}"] for k in keys if k in r.extras}}
+    return dataclasses.replace(r, extras=extras, **{k: both[k] for k in names})

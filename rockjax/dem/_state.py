@@ -13,7 +13,7 @@ import numpy as np
 from .._checks import check_scalar, concrete
 from ..assembly import Assembly
 from ..block import Block
-from ..compilation import persistent_jit, strong_scalars
+from ..compilation import memoized, persistent_jit, strong_scalars
 from ..constants import G
 from ..contact import Joint
 from ..modes import Mode, Parapet
@@ -112,7 +112,7 @@ def set_up(body: Block | Assembly, beta, mode: Mode, joint: Joint, phi_deg, accu
     args = params_args(assembly, beta, mode, phi_deg)
     args += strong_scalars((accuracy, open_accuracy, theta0))
     options = params_options(mode, joint)
-    return set_up_program(*args, hinge=is_hinged(assembly, theta0), **options)
+    return remembered_set_up(*args, hinge=is_hinged(assembly, theta0), **options)
 
 
 @persistent_jit
@@ -122,6 +122,11 @@ def set_up_program(
     """:func:`set_up`'s program."""
     p = build_params(assembly, beta, gap, phi_deg, one_sided=one_sided, joint=joint)
     return p, steps(p, accuracy, open_accuracy), settled(assembly, p, theta0, hinge)
+
+
+remembered_set_up = memoized(set_up_program)
+""":func:`set_up_program` with its recent results kept by value: a loop of eager runs of one
+block and ``beta`` (a record set) sets up once (about 0.3 ms a call otherwise)."""
 
 
 # Compiled: one call instead of ~30 eager operations (~0.5 ms a call).

@@ -37,7 +37,7 @@ from .._checks import (
 )
 from .._lazy import lazy_module
 from ..block import Block
-from ..compilation import bucket_length, is_traced, notice, pad_to
+from ..compilation import bucket_length, cut_to, is_traced, notice, pad_to
 from ..modes import MODE_NAMES, Mode, as_mode
 from ..motion import GroundMotion
 from ..response import STATUS_BAD_INPUT, STATUS_OK, Response
@@ -383,16 +383,18 @@ def _cut(resp: Response, n_out: int) -> Response:
     slice of a device array would compile once per length).
     """
 
-    def cut(x):
-        return jax.device_put(np.asarray(x)[:n_out])
-
-    extras = dict(resp.extras)
-    for key in ("n_impacts", "t_last_impact", "pivot"):
-        extras[key] = cut(extras[key])
+    keys = ("n_impacts", "t_last_impact", "pivot")
+    names = ("t", "theta", "theta_dot", "d", "energy")
+    series = {
+        **{k: getattr(resp, k) for k in names},
+        **{f"extras.{k}": resp.extras[k] for k in keys},
+    }
+    short = cut_to(series, n_out)
+    extras = {**resp.extras, **{k: short[f"extras.{k}"] for k in keys}}
     return eqx.tree_at(
         lambda r: (r.t, r.theta, r.theta_dot, r.d, r.energy, r.extras),
         resp,
-        (cut(resp.t), cut(resp.theta), cut(resp.theta_dot), cut(resp.d), cut(resp.energy), extras),
+        (*(short[k] for k in names), extras),
     )
 
 
