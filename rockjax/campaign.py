@@ -47,7 +47,7 @@ from ._checks import check_nonnegative, check_scales
 from ._lazy import lazy_module
 from .block import Block
 from .contact import Joint
-from .ida import DEFAULT_SCALES, MODELS, ida, run_config
+from .ida import DEFAULT_SCALES, MODELS, host_threads, ida, run_config
 from .models import DEM, Housner, Model, as_model
 from .modes import Mode, as_mode
 from .motion import GroundMotion
@@ -223,8 +223,10 @@ def run(
             balance better; larger ones compile less often.
         scheduler: ``None`` for a ``LocalCluster`` started here (closed at the end), a
             scheduler address (``"tcp://host:8786"``), or a ``distributed.Client``.
-        n_workers: Worker processes of the LocalCluster (default: one per core, at most one
-            per pending part); each runs one task at a time.
+        n_workers: Worker processes of the LocalCluster (default: one per core this process
+            may use, :func:`rockjax.ida.host_threads`, so a batch scheduler's CPU set or
+            ``taskset`` is respected; at most one per pending part); each runs one task at a
+            time.
         progress: Show a progress bar (tqdm, on stderr) over the parts.
 
     Returns:
@@ -593,7 +595,8 @@ def _compute(pending, records, scales, out, scheduler, n_workers, progress, mani
         tmp.unlink(missing_ok=True)
     cluster = None
     if scheduler is None:
-        n = n_workers or min(os.cpu_count() or 1, len(pending))
+        # one worker per core this process may use (a batch scheduler's cpuset, taskset)
+        n = n_workers or min(host_threads(), len(pending))
         cluster = LocalCluster(
             n_workers=n,
             threads_per_worker=1,

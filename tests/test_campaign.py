@@ -357,3 +357,26 @@ def test_pulse_study_quick_runs_end_to_end(tmp_path):
         assert (tmp_path / name).stat().st_size > 10_000
     with open(tmp_path / "capacities.csv") as f:
         assert len(f.read().splitlines()) == 1 + 4 * 12
+
+
+def test_local_cluster_has_one_worker_per_usable_core(tmp_path, monkeypatch):
+    # Reference: the cores this process may use (os.sched_getaffinity, as rj.ida's threads),
+    # here narrowed to one by a stand-in; os.cpu_count() (the machine's) would say 2 or more.
+    import dask.distributed
+
+    asked = {}
+
+    class Stop(Exception):
+        pass
+
+    def cluster(**kw):
+        asked.update(kw)
+        raise Stop
+
+    monkeypatch.setattr(dask.distributed, "LocalCluster", cluster)
+    monkeypatch.setattr(rj.campaign, "host_threads", lambda: 1)
+    recs = [rj.GroundMotion.ricker(pga=3.0, period=0.3 + 0.1 * k, duration=1.0) for k in range(4)]
+    case = rj.campaign.Case("parapet", rj.Block(b=0.25, h=3.0), "pulses", model=rj.Housner())
+    with pytest.raises(Stop):
+        rj.campaign.run([case], {"pulses": recs}, tmp_path, records_per_task=1, progress=False)
+    assert asked["n_workers"] == 1  # four pending parts, one usable core
