@@ -32,6 +32,10 @@ under ``grad``). rockjax avoids this, and says when it compiles:
   :func:`configure_cpu` adds it there; ``import rockjax`` does so only when ``XLA_FLAGS`` is
   unset and JAX's backend has not started, and never with ``ROCKJAX_NO_XLA_TUNING=1``
   (docs/conventions.md, "XLA flags"). Without it, the first compile says so once.
+* **Eager calls.** An eager run pads its record in NumPy (:func:`pad_to`), cuts its outputs on
+  the host in one transfer (:func:`cut_to`), and keeps its set-up's results by the values of
+  its inputs (:func:`memoized`), so a loop of eager runs over a record set pays little around
+  each run (docs/benchmarks.md, "One history as a user runs it").
 * **Notices.** The first call that compiles a solver says so in one line ("compiling the Housner
   solver for records of <= 32768 samples (once per session)..."), through the ``rockjax``
   logger when logging is configured, else on stderr. The DEM's says which program it compiles
