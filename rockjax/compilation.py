@@ -396,11 +396,11 @@ def value_key(tree) -> Hashable | None:
     for x in flat:
         if isinstance(x, jax.core.Tracer):
             return None
-        if isinstance(x, (np.ndarray, np.generic, jax.Array)):
-            a = np.asarray(x)
-            key.append((a.dtype.str, a.shape, a.tobytes()))
-        elif isinstance(x, (bool, int, float, complex, str, type(None))):
-            key.append((type(x).__name__, x))
+        if isinstance(x, (np.ndarray, np.generic, jax.Array, bool, int, float, complex)):
+            a = np.asarray(x)  # (bytes: 0.0 and -0.0 differ, as do 1 and 1.0 by their type)
+            key.append((type(x).__name__, a.dtype.str, a.shape, a.tobytes()))
+        elif isinstance(x, (str, type(None))):
+            key.append(x)
         else:
             return None
     key = tuple(key)

@@ -88,6 +88,7 @@ def test_value_key_tells_values_apart_and_refuses_tracers():
     assert key(np.float64(0.25)) != key(np.float64(0.2500000000000001))
     assert key(np.arange(3.0)) != key(np.arange(3.0).reshape(3, 1))  # the shape counts
     assert key(np.arange(3.0)) != key(np.arange(3, dtype=np.float32))  # and the type
+    assert key(0.0) != key(-0.0) and key(1) != key(1.0)  # (equal in Python, not as inputs)
     assert key(rj.Block(b=0.25, h=3.0)) == key(rj.Block(b=0.25, h=3.0))
     assert key(rj.Joint()) != key(rj.Joint(n_sub=2))  # static fields are in the structure
     seen = []
