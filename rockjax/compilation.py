@@ -416,13 +416,14 @@ def memoized(fn, maxsize: int = 64):
     last ``maxsize`` results kept by the values of its arguments (:func:`value_key`): a call
     whose arguments equal an earlier call's returns that call's outputs (JAX arrays are
     immutable, so sharing them is safe) without dispatching the program again. Calls with
-    traced arguments run ``fn``. Thread-safe."""
+    traced arguments, and any call while a ``jit`` is being traced (:func:`tracing`: there
+    ``fn``'s outputs are the trace's values, not arrays), run ``fn``. Thread-safe."""
     kept: collections.OrderedDict = collections.OrderedDict()
     lock = threading.Lock()
 
     @functools.wraps(fn)
     def call(*args, **kwargs):
-        key = value_key((args, kwargs))
+        key = None if tracing() else value_key((args, kwargs))
         if key is None:
             return fn(*args, **kwargs)
         with lock:
@@ -438,6 +439,12 @@ def memoized(fn, maxsize: int = 64):
 
     call.cache_clear = kept.clear
     return call
+
+
+def tracing() -> bool:
+    """Whether a ``jit`` (or another staging transform) is being traced here: an operation on
+    a constant is then staged into the trace instead of run (about 0.01 ms to ask)."""
+    return isinstance(jax.lax.stop_gradient(np.float64(0.0)), jax.core.Tracer)
 
 
 def is_traced(*xs) -> bool:

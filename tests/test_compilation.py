@@ -114,22 +114,31 @@ def test_memoized_reuses_results_by_value_only():
     # traced arguments run the function
     np.testing.assert_array_equal(jax.jit(lambda a: g(a, scale=2.0))(np.ones(3)), 2.0 * np.ones(3))
     assert len(calls) == 5
+    # so does a call with kept values while a jit is traced (its outputs are the trace's)
+    np.testing.assert_array_equal(jax.jit(lambda: g(np.arange(3.0), scale=2.0))(), [0, 2, 4])
+    assert len(calls) == 6 and compilation.tracing() is False
 
 
 def test_eager_dem_runs_in_a_loop_are_their_own_runs():
     """The eager run keeps its set-up by value (``memoized``) and its single-block assembly
-    (``as_assembly``): a loop over beta and blocks gives each run the history it gets alone
-    in a fresh call of its own program (a stale set-up would repeat the first run's)."""
+    (``as_assembly``). Reference: each run under the caller's ``jit``, which keeps nothing
+    (traced). A loop over beta and blocks gives each eager run that history (a stale set-up
+    would repeat the first run's), also for blocks whose numbers are JAX arrays."""
     rec = rj.GroundMotion.ricker(pga=4.0, period=0.4, dt=0.01, duration=1.5)
     cases = [(0.25, 3.0, 0.01), (0.25, 3.0, 0.02), (0.2, 1.5, 0.01), (0.25, 3.0, 0.01)]
     got = [rj.simulate_dem(rj.Block(b=b, h=h), rec, beta=beta).theta for b, h, beta in cases]
-    # the block's numbers as JAX arrays (unhashable): no kept assembly, the same runs
     arrays = [
         rj.simulate_dem(rj.Block(b=jnp.asarray(b), h=jnp.asarray(h)), rec, beta=beta).theta
         for b, h, beta in cases
     ]
-    for a, b_ in zip(got, arrays):
-        np.testing.assert_array_equal(a, b_)
+    for (b, h, beta), eager, eager_arrays in zip(cases, got, arrays):
+        block = rj.Block(b=b, h=h)
+        dt = rj.stable_dt(block, beta)
+        traced = jax.jit(lambda: rj.simulate_dem(block, rec, beta=beta, dt=dt).theta)()
+        peak = float(np.max(np.abs(traced)))
+        # the same steps, the block's numbers constants or data: round-off apart
+        np.testing.assert_allclose(eager, traced, rtol=0, atol=1e-9 * peak)
+        np.testing.assert_array_equal(eager_arrays, eager)
     assert np.max(np.abs(got[0] - got[1])) > 1e-4  # beta changed the history
     assert np.max(np.abs(got[0] - got[2])) > 1e-4  # so did the block
     np.testing.assert_array_equal(got[0], got[3])
