@@ -165,13 +165,13 @@ def pad_to(x, length: int):
     return jnp.pad(jnp.asarray(x, dtype=float), (0, length - n), mode="edge")
 
 
-def cut_to(series: dict, n: int) -> dict:
-    """:func:`pad_to`'s inverse for a padded run's outputs: ``series`` (name -> a concrete
-    array whose first axis is time, or None) cut to their first ``n`` samples on the host and
-    moved to the device in one transfer. An eager slice of a device array would compile once
-    per length; one ``jax.device_put`` per series cost about 0.05 ms each."""
-    kept = {k: np.asarray(x)[:n] for k, x in series.items() if x is not None}
-    return {**series, **jax.device_put(kept)}
+def cut_to(series, n: int):
+    """:func:`pad_to`'s inverse for a padded run's outputs: ``series`` (a pytree of concrete
+    arrays whose first axis is time; None entries stay None) cut to their first ``n`` samples
+    on the host and moved to the device in one transfer. An eager slice of a device array
+    would compile once per length; one ``jax.device_put`` per series cost about 0.05 ms
+    each."""
+    return jax.device_put(jax.tree.map(lambda x: np.asarray(x)[:n], series))
 
 
 def cache_dir() -> Path | None:

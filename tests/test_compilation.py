@@ -73,7 +73,8 @@ def test_pad_repeats_the_last_sample_concrete_or_traced():
 def test_cut_undoes_the_padding_in_one_transfer_and_keeps_nones():
     x = np.arange(6.0)
     series = {"a": compilation.pad_to(x, 9), "b": None, "c": jnp.asarray(np.arange(18.0) * 2.0)}
-    got = compilation.cut_to(series, 6)
+    got, (nested,) = compilation.cut_to((series, (series["c"],)), 6)
+    np.testing.assert_array_equal(nested, got["c"])
     np.testing.assert_array_equal(got["a"], x)
     np.testing.assert_array_equal(got["c"], np.arange(6.0) * 2.0)
     assert got["b"] is None

@@ -212,7 +212,7 @@ def cut_block(r: Response, n: int) -> Response:
 
     keys = ("x", "y", "normal_forces", "shear_forces", "wall_forces", "work_wall")
     names = ("t", "theta", "theta_dot", "d", "energy")
-    kept = {f"extras.{k}": r.extras[k] for k in keys if k in r.extras}
-    both = cut_to({**{k: getattr(r, k) for k in names}, **kept}, n)
-    extras = {**r.extras, **{k: both[f"extras.{k}"] for k in keys if k in r.extras}}
-    return dataclasses.replace(r, extras=extras, **{k: both[k] for k in names})
+    series = {k: getattr(r, k) for k in names}
+    extras = {k: r.extras[k] for k in keys if k in r.extras}
+    series, extras = cut_to((series, extras), n)
+    return dataclasses.replace(r, extras={**r.extras, **extras}, **series)

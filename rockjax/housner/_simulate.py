@@ -389,18 +389,13 @@ def _cut(resp: Response, n_out: int) -> Response:
     slice of a device array would compile once per length).
     """
 
-    keys = ("n_impacts", "t_last_impact", "pivot")
-    names = ("t", "theta", "theta_dot", "d", "energy")
-    series = {
-        **{k: getattr(resp, k) for k in names},
-        **{f"extras.{k}": resp.extras[k] for k in keys},
-    }
-    short = cut_to(series, n_out)
-    extras = {**resp.extras, **{k: short[f"extras.{k}"] for k in keys}}
+    series = (resp.t, resp.theta, resp.theta_dot, resp.d, resp.energy)
+    extras = {k: resp.extras[k] for k in ("n_impacts", "t_last_impact", "pivot")}
+    series, extras = cut_to((series, extras), n_out)
     return eqx.tree_at(
         lambda r: (r.t, r.theta, r.theta_dot, r.d, r.energy, r.extras),
         resp,
-        (*(short[k] for k in names), extras),
+        (*series, {**resp.extras, **extras}),
     )
 
 
