@@ -13,6 +13,7 @@ import jax as _jax
 # relative).
 _jax.config.update("jax_enable_x64", True)
 
+from . import batching as batching  # noqa: E402
 from . import building as building  # noqa: E402
 from . import calibration as calibration  # noqa: E402
 from . import campaign as campaign  # noqa: E402  (dask is imported lazily inside)
@@ -30,6 +31,7 @@ from .assembly import Assembly as Assembly  # noqa: E402
 from .assembly import LimitAnalysis as LimitAnalysis  # noqa: E402
 from .assembly import collapse_multiplier as collapse_multiplier  # noqa: E402
 from .assembly import limit_analysis as limit_analysis  # noqa: E402
+from .batching import vmap_chunks as vmap_chunks  # noqa: E402
 from .block import Block as Block  # noqa: E402
 from .building import ShearBuilding as ShearBuilding  # noqa: E402
 from .building import floor_spectra as floor_spectra  # noqa: E402
@@ -108,6 +110,7 @@ __all__ = [
     "ThreeBranchLaw",
     "as_mode",
     "as_model",
+    "batching",
     "beta_dejong",
     "beta_hcrit",
     "beta_isr",
@@ -149,6 +152,7 @@ __all__ = [
     "spectra",
     "stable_dt",
     "stable_dt_assembly",
+    "vmap_chunks",
     "wall_top_motion",
     "write_at2",
 ]

@@ -50,6 +50,7 @@ Engineering demand parameters, per run:
   coordinates, so :func:`rockjax.fragility` can fit against PGA, PGV or the IDA's IM.
 """
 
+from ..batching import host_threads as host_threads
 from ._api import ida as ida
 from ._config import DEFAULT_SCALES as DEFAULT_SCALES
 from ._config import MODELS as MODELS
@@ -58,4 +59,3 @@ from ._config import run_config as run_config
 from ._intervals import CollapseIntervals as CollapseIntervals
 from ._intervals import collapse_intervals as collapse_intervals
 from ._plan import CHUNK_PER_DEVICE as CHUNK_PER_DEVICE
-from ._plan import host_threads as host_threads

@@ -11,6 +11,7 @@ from jaxtyping import ArrayLike, Float
 from .._lazy import lazy_module
 from .._types import ScalarLike
 from ..assembly import Assembly
+from ..batching import host_threads
 from ..block import Block
 from ..building import ShearBuilding
 from ..models import Model, as_model
@@ -18,7 +19,7 @@ from ..modes import Mode, as_mode
 from ..motion import GroundMotion
 from ._config import DEFAULT_SCALES, gap_unused
 from ._dataset import to_dataset
-from ._plan import host_threads, make_plan, placement_on
+from ._plan import make_plan, placement_on
 from ._run import run_plan
 
 xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)

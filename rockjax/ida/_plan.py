@@ -4,7 +4,6 @@ they run (devices)."""
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -135,27 +134,12 @@ def make_plan(
 class Placement(NamedTuple):
     """Puts a chunk's per-run arrays split over the devices and the records on every one;
     ``mesh``: the devices' mesh (axis ``"run"``), None for one device; ``threads``: how many
-    chunks run at once (:func:`host_threads`)."""
+    chunks run at once (:func:`rockjax.batching.host_threads`)."""
 
     split: object
     replicated: object
     mesh: jax.sharding.Mesh | None = None
     threads: int = 1
-
-
-def host_threads() -> int:
-    """The chunks an IDA runs at once on one host CPU device: one per core this process may
-    use. Each runs on its own core (one compiled call per Python thread; XLA:CPU runs the calls
-    of one thread one after another). Measured on 2 cores, the far-field IDA of the 0.2 x 1.5 m
-    block ran 1.9-2.0x faster as a facade and 1.85-1.9x as a parapet, with the same results to
-    the bit (docs/benchmarks.md, "IDA: chunks in threads"). The chunks then run in worker
-    threads, which JAX settings made in the caller's thread by a context manager (e.g.
-    ``jax.debug_nans(True)``) do not reach: set those with ``jax.config.update``, or name
-    ``devices`` (one chunk at a time, in the caller's thread)."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # (not on every platform)
-        return max(1, os.cpu_count() or 1)
 
 
 def placement_on(devices, threads: int = 1) -> Placement:

@@ -1,0 +1,84 @@
+"""Tests of rockjax.batching: chunks of a vmap batch in threads against single runs, the wide
+batch's compiler options, and bad arguments."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import rockjax as rj
+from rockjax.batching import WIDE_BATCH, WIDE_BATCH_OPTIONS, batch_options
+
+RTOL = 1e-12
+"""A batch against single runs, or two compilations of one batch: the same float64
+operations, up to XLA's fusion choices (round-off, not grown: the runs are short)."""
+
+BLOCK = rj.Block(b=0.2, h=1.0)
+BETA = 2e-3  # [s]
+REC = rj.GroundMotion.ricker(3.0, 0.4, dt=0.01, duration=0.6)
+DT = float(rj.stable_dt(BLOCK, BETA))
+
+
+def one(scale):
+    """One DEM run of the record at ``scale``: a pytree of outputs."""
+    r = rj.simulate_dem(
+        BLOCK, rj.GroundMotion(ag=scale * jnp.asarray(REC.ag), dt=REC.dt), beta=BETA, dt=DT
+    )
+    return {"theta_max": r.theta_max, "theta": r.theta}
+
+
+def _single_runs(scales):
+    run = jax.jit(one)
+    outs = [jax.device_get(run(s)) for s in scales]
+    return {k: np.stack([o[k] for o in outs]) for k in outs[0]}
+
+
+def test_chunks_in_threads_match_single_runs():
+    """Seven runs in chunks of three (the last padded) on two threads, called twice (the
+    second call runs every chunk in the threads): the stacked outputs of seven single runs."""
+    scales = np.linspace(0.4, 1.6, 7)
+    ref = _single_runs(scales)
+    batched = rj.vmap_chunks(one, chunk_size=3, threads=2)
+    for _ in range(2):
+        out = batched(scales)
+        assert set(out) == set(ref)
+        for k in ref:
+            assert isinstance(out[k], np.ndarray)
+            assert out[k].shape == ref[k].shape
+            np.testing.assert_allclose(out[k], ref[k], rtol=RTOL, atol=1e-15)
+    assert np.ptp(ref["theta_max"]) > 1e-3  # the runs differ: a mix-up of rows would show
+
+
+def test_inside_jit_is_vmap():
+    scales = np.array([0.5, 1.5])
+    out = jax.jit(rj.vmap_chunks(one, chunk_size=1))(scales)
+    np.testing.assert_allclose(out["theta_max"], _single_runs(scales)["theta_max"], rtol=RTOL)
+
+
+def test_wide_batch_options_drop_the_hoisting_pass():
+    """The pass leaves its mark (``xla_cpu_small_call``) on a hoisted loop; the wide options
+    compile the same batch without it, to the same results."""
+    assert batch_options(WIDE_BATCH - 1) == {}
+    assert batch_options(WIDE_BATCH) == WIDE_BATCH_OPTIONS
+    scales = np.linspace(0.4, 1.6, WIDE_BATCH)
+    hoisted = jax.jit(jax.vmap(one)).lower(scales).compile()
+    wide = jax.jit(jax.vmap(one), compiler_options=WIDE_BATCH_OPTIONS).lower(scales).compile()
+    assert "xla_cpu_small_call" in hoisted.as_text()
+    assert "xla_cpu_small_call" not in wide.as_text()
+    a, b = hoisted(scales), wide(scales)
+    np.testing.assert_allclose(b["theta"], a["theta"], rtol=RTOL, atol=1e-15)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match", [({"chunk_size": 0}, "chunk_size"), ({"threads": 0}, "threads")]
+)
+def test_bad_options_say_which(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        rj.vmap_chunks(one, **kwargs)
+
+
+def test_unequal_batch_axes_say_how_to_fix():
+    with pytest.raises(ValueError, match="leading.*Close over"):
+        rj.vmap_chunks(lambda a, b: a + b)(np.ones(3), np.ones(4))
+    with pytest.raises(ValueError, match="leading"):
+        rj.vmap_chunks(lambda a, b: a + b)(np.ones(3), 1.0)
