@@ -79,6 +79,11 @@ def vmap_chunks(fn: Callable, chunk_size: int = CHUNK, threads: int | None = Non
     the others run ``threads`` at a time (default :func:`host_threads`), each on its own core. Called inside
     a transform (``jit``, ``vmap``, ``grad``) it is ``jax.vmap(fn)``.
 
+    A function whose loop branches differently in each run (:func:`rockjax.simulate_housner`,
+    a DEM facade's open and closed steps) runs faster one run after another on CPU
+    (:func:`rockjax.housner.batch_runs`, or :func:`rockjax.ida`); this is for runs that take
+    the same path, such as DEM parapets.
+
     Args:
         fn: A function of one run, as for ``jax.vmap``.
         chunk_size: Runs per compiled call (default :data:`CHUNK`).

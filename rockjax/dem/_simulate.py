@@ -72,7 +72,8 @@ def simulate_dem(
     block run fastest one after another on CPU (``rj.ida``, or ``jax.lax.map`` under ``jit``):
     each takes its own open steps, where a ``vmap`` batch takes, each sample, those of all its
     runs (32 far-field runs: 0.56 s in a loop, 1.75 s as a ``vmap`` batch;
-    ``benchmarks/bench_facade_batch.py``).
+    ``benchmarks/bench_facade_batch.py``). Many parapets run fastest through
+    :func:`rockjax.vmap_chunks` (chunks of a ``vmap`` batch in threads, one per core).
 
     In a building (an assembly with ``support_motion=bldg``), the wall of storey ``storey``
     stands on floor ``storey - 1`` (0 the ground) and its top restraint is held by floor
