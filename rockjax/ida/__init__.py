@@ -12,9 +12,11 @@ flattened and run in chunks of ``chunk_size`` (default :data:`CHUNK_PER_DEVICE` 
 loop, which bounds the memory and lets a progress bar advance between chunks (DEM parapets and
 walls of several blocks are vmapped; Housner runs and DEM facades of one block go through
 :func:`rockjax.housner.batch_runs`, one after another on CPU). By default, on a host CPU, the
-chunks run in :func:`host_threads` threads at once, each on its own core. The last chunk is
-padded (with zero-scale runs of the first record, dropped afterwards) to the same shape, so
-the batch compiles once.
+chunks run in :func:`host_threads` threads at once, each on its own core. The runs are
+chunked in the order of their scaled records' PGV (``scale * pgv``, lowest first): a batch
+steps until its last run ends, so runs that collapse early go together. The last chunk is
+padded (with repeats of its last run, dropped afterwards) to the same shape, so the batch
+compiles once.
 
 Records. Every run lasts ``t_end`` = the longest record plus a free-vibration ``tail`` [s]
 (records are zero-padded), so the block can finish its last excursion (or overturn) after the

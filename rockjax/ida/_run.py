@@ -3,10 +3,10 @@ solved once per record."""
 
 from __future__ import annotations
 
-import collections
 import concurrent.futures
 import functools
 import math
+from concurrent.futures import Future
 
 import jax
 import jax.numpy as jnp
@@ -21,7 +21,7 @@ from ..models import map_numbers
 from ..motion import GroundMotion
 from ..response import STATUS_OK
 from ..supports import storey_supports, wall_top_motion
-from ._plan import Placement, Plan
+from ._plan import Placement, Plan, run_order
 
 xr = lazy_module("xarray")  # loaded on first use (rockjax/_lazy.py)
 
@@ -44,14 +44,19 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
     block = strong_scalars(plan.block)
     walls: dict[float, tuple] = {}
     supports: dict[float, tuple] = {}
+    orders: dict[float, tuple] = {}  # per group: its runs in chunk order (run_order)
 
     def prepare(g, k, size, n_runs_g):
         """A chunk's inputs, placed: ``(chunk, options, local, j, real)``, :func:`run_chunk`'s
         arguments and the chunk's records (local to its group), scales and real runs."""
         flat = np.arange(k * size, (k + 1) * size)
         real = flat < n_runs_g
-        flat = np.where(real, flat, 0)  # padding: repeats of the group's first run, dropped
-        local, j = np.divmod(flat, n_scale)
+        # padding: repeats of the group's last run in chunk order (its strongest, which
+        # collapses first of all), dropped
+        flat = np.where(real, flat, n_runs_g - 1)
+        if g.dt not in orders:
+            orders[g.dt] = run_order(plan, g)
+        local, j = orders[g.dt][0][flat], orders[g.dt][1][flat]
         ag, ag_v = place.replicated(g.ag), place.replicated(g.ag_v)
         rec_k, scale_k = place.split(local.astype(np.int32)), place.split(plan.scales[j])
         wall = None
@@ -94,17 +99,24 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
 
     # the chunks run in place.threads threads at once (rockjax.ida.host_threads: each on a
     # core of a host CPU; one thread: the caller's); a chunk that compiles runs alone (the
-    # others would compile its program again), and the bar says so
-    jobs: collections.deque = collections.deque()
+    # others would compile its program again), and the bar says so. A thread takes the next
+    # chunk as soon as it is free: the chunks' costs differ (runs ordered by PGV, run_order)
+    jobs: list = []
 
     def collect():
-        job, index, local, j, real = jobs.popleft()
-        out = job.result() if isinstance(job, concurrent.futures.Future) else job
-        if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
-            grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
-        for key in grids:
-            grids[key][index[local[real]], j[real]] = np.asarray(out[key])[real]
-        bar.update(int(real.sum()))
+        """Wait for a chunk to end; take the results of every chunk that has ended."""
+        running = [job for job, *_ in jobs if isinstance(job, Future)]
+        if running:
+            concurrent.futures.wait(running, return_when=concurrent.futures.FIRST_COMPLETED)
+        for entry in [e for e in jobs if not isinstance(e[0], Future) or e[0].done()]:
+            jobs.remove(entry)
+            job, index, local, j, real = entry
+            out = job.result() if isinstance(job, Future) else job
+            if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
+                grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
+            for key in grids:
+                grids[key][index[local[real]], j[real]] = np.asarray(out[key])[real]
+            bar.update(int(real.sum()))
 
     threaded = place.threads > 1
     with concurrent.futures.ThreadPoolExecutor(max_workers=place.threads) as pool:
