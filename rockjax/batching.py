@@ -76,8 +76,8 @@ def vmap_chunks(fn: Callable, chunk_size: int = CHUNK, threads: int | None = Non
     chunks of ``chunk_size`` (the last padded with copies of the first run, dropped afterwards,
     so that every chunk has one shape and compiles once), each a ``jax.jit(jax.vmap(fn))``
     call with :func:`batch_options`. The first chunk of a new width runs alone (it compiles);
-    the others run ``threads`` at a time (default :func:`host_threads`), each on its own core. Called inside
-    a transform (``jit``, ``vmap``, ``grad``) it is ``jax.vmap(fn)``.
+    the others run ``threads`` at a time (default :func:`host_threads`), each on its own
+    core. Called inside a transform (``jit``, ``vmap``, ``grad``) it is ``jax.vmap(fn)``.
 
     A function whose loop branches differently in each run (:func:`rockjax.simulate_housner`,
     a DEM facade's open and closed steps) runs faster one run after another on CPU

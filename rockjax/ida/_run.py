@@ -108,9 +108,10 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
         running = [job for job, *_ in jobs if isinstance(job, Future)]
         if running:
             concurrent.futures.wait(running, return_when=concurrent.futures.FIRST_COMPLETED)
-        for entry in [e for e in jobs if not isinstance(e[0], Future) or e[0].done()]:
-            jobs.remove(entry)
-            job, index, local, j, real = entry
+        ended = [not isinstance(e[0], Future) or e[0].done() for e in jobs]
+        taken = [e for e, end in zip(jobs, ended) if end]
+        jobs[:] = [e for e, end in zip(jobs, ended) if not end]
+        for job, index, local, j, real in taken:
             out = job.result() if isinstance(job, Future) else job
             if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
                 grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
