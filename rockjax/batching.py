@@ -121,6 +121,8 @@ def vmap_chunks(fn: Callable, chunk_size: int = CHUNK, threads: int | None = Non
                 "lambda or functools.partial around fn)."
             )
         (n,) = sizes
+        if n == 0:
+            raise ValueError("vmap_chunks: the batch is empty (a leading axis of length 0).")
         size = min(chunk_size, n)
         if size not in programs:
             programs[size] = jax.jit(jax.vmap(fn), compiler_options=batch_options(size) or None)

@@ -82,3 +82,5 @@ def test_unequal_batch_axes_say_how_to_fix():
         rj.vmap_chunks(lambda a, b: a + b)(np.ones(3), np.ones(4))
     with pytest.raises(ValueError, match="leading"):
         rj.vmap_chunks(lambda a, b: a + b)(np.ones(3), 1.0)
+    with pytest.raises(ValueError, match="empty"):
+        rj.vmap_chunks(lambda a: a)(np.ones((0, 2)))
