@@ -6,8 +6,8 @@ on its own core; so a batch runs fastest as chunks in as many threads as the pro
 cores (:func:`host_threads`). How a chunk's time loop is compiled depends on its width: XLA's
 ``small-while-loop-hoisting`` pass compiles a loop whose data are small into one kernel,
 which makes a single history 8-15 times faster (docs/benchmarks.md, "The small-while-loop
-flag") and batches of up to 64 runs faster too, but slows wider batches, whose loops run
-faster as XLA's separate vectorised kernels. Measured on 2 cores (1024 runs of a 20 s record,
+flag") and batches of up to 32 runs faster too (64: even), but slows wider batches, whose
+loops run faster as XLA's separate vectorised kernels. Measured on 2 cores (1024 runs of a 20 s record,
 0.25 x 3 m parapet, default joint, chunks in two threads; docs/benchmarks.md, "Wide
 batches"): chunks of 256 ran at 5.4-5.8e7 block-steps/s without the pass and 3.2-3.3e7 with
 it, chunks of 64 at 4.2e7 either way, chunks of 32 at 2.6e7 without and 3.6e7 with it.
@@ -34,8 +34,8 @@ HOISTING_PASS = "small-while-loop-hoisting"
 WIDE_BATCH = 128
 """Runs per compiled batch from which a batch's loops run faster without
 :data:`HOISTING_PASS` on CPU (measured with the default joint: 1.15-1.25x faster at 128 runs,
-1.7-1.8x at 256, 2.5x at 512; even at 64; below that the pass wins. With corner contacts
-even at 128, 1.25x at 256)."""
+1.7-1.8x at 256, 2.5x at 512; even at 64; below that the pass wins. With corner contacts:
+even at 128, 1.25x faster at 256, slower below)."""
 WIDE_BATCH_OPTIONS = {"xla_disable_hlo_passes": HOISTING_PASS}
 """``jax.jit(..., compiler_options=WIDE_BATCH_OPTIONS)`` for a batch of :data:`WIDE_BATCH` runs
 or more on CPU (the same results, to round-off)."""
