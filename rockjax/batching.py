@@ -7,10 +7,11 @@ cores (:func:`host_threads`). How a chunk's time loop is compiled depends on its
 ``small-while-loop-hoisting`` pass compiles a loop whose data are small into one kernel,
 which makes a single history 8-15 times faster (docs/benchmarks.md, "The small-while-loop
 flag") and batches of up to 32 runs faster too (64: even), but slows wider batches, whose
-loops run faster as XLA's separate vectorised kernels. Measured on 2 cores (1024 runs of a 20 s record,
-0.25 x 3 m parapet, default joint, chunks in two threads; docs/benchmarks.md, "Wide
-batches"): chunks of 256 ran at 5.4-5.8e7 block-steps/s without the pass and 3.2-3.3e7 with
-it, chunks of 64 at 4.2e7 either way, chunks of 32 at 2.6e7 without and 3.6e7 with it.
+loops run faster as XLA's separate vectorised kernels. Measured on 2 cores (1024 runs of a
+20 s record, 0.25 x 3 m parapet, default joint, chunks in two threads; docs/benchmarks.md,
+"Wide batches"): chunks of 256 ran at 5.4-5.8e7 block-steps/s without the pass and
+3.2-3.3e7 with it, chunks of 64 at 4.2e7 either way, chunks of 32 at 2.6e7 without and 3.6e7
+with it.
 
 :func:`vmap_chunks` does this for any function of one run; :data:`WIDE_BATCH_OPTIONS` are the
 compiler options of a wide batch, for a ``jax.jit`` of one's own::
@@ -106,7 +107,6 @@ def vmap_chunks(fn: Callable, chunk_size: int = CHUNK, threads: int | None = Non
     ):
         raise ValueError(f"threads (chunks at once) must be an int >= 1 or None; got {threads!r}.")
     programs: dict[int, Callable] = {}  # by chunk width: its compiler options depend on it
-    ready: set[int] = set()  # widths compiled (by a first chunk run alone)
 
     def batched(*args):
         leaves, treedef = jax.tree.flatten(args)
@@ -124,7 +124,8 @@ def vmap_chunks(fn: Callable, chunk_size: int = CHUNK, threads: int | None = Non
         if n == 0:
             raise ValueError("vmap_chunks: the batch is empty (a leading axis of length 0).")
         size = min(chunk_size, n)
-        if size not in programs:
+        compiles = size not in programs
+        if compiles:
             programs[size] = jax.jit(jax.vmap(fn), compiler_options=batch_options(size) or None)
         starts = range(0, n, size)
         rows = np.concatenate([np.arange(n), np.zeros(len(starts) * size - n, int)])
@@ -133,8 +134,7 @@ def vmap_chunks(fn: Callable, chunk_size: int = CHUNK, threads: int | None = Non
             part = [x[rows[start : start + size]] for x in leaves]
             return jax.device_get(programs[size](*jax.tree.unflatten(treedef, part)))
 
-        first = [] if size in ready else [chunk(starts[0])]  # a chunk that compiles: alone
-        ready.add(size)
+        first = [chunk(starts[0])] if compiles else []  # a chunk that compiles runs alone
         with concurrent.futures.ThreadPoolExecutor(threads or host_threads()) as pool:
             parts = first + list(pool.map(chunk, starts[len(first) :]))
         return jax.tree.map(lambda *xs: np.concatenate(xs)[:n], *parts)
