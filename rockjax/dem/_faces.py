@@ -49,6 +49,15 @@ face between the breakpoints of the contact law gets this rule, so the closed pa
 polynomials (degree <= 2 in the face coordinate) are integrated exactly."""
 
 
+SPRINGS_SUMMED = 2
+"""Faces of at most this many point sub-contacts (the two corners) return their points' new
+shear springs from the reduction that sums the point law (:func:`point_sums`); faces of more
+points slice them out of the points' array. Measured (docs/benchmarks.md, "Two corners: the
+springs in the sums"): the two corners' batch 1.2x faster, one history the same; with 4 or
+8 points the extra sums cost more than they save (a batch 2x and 1.3x slower), and one
+history of 3 or 8 points ran 1.1x and 1.6x slower."""
+
+
 def pair_kinematics(p: DemParams, st: DemState, i: int):
     """The geometry of interface ``i`` as a function of the face coordinate ``t``: returns
     ``kin(t) -> (rx_u, ry_u, dx, dy, delta, delta_dot, slip)`` (arms of the point from the
@@ -241,10 +250,20 @@ def point_sums(p: DemParams, k, pts, lo, width, ends, hist, kn, beta, dt, dt_ons
     wn = jnp.where(f > 0, wf, 0.0) if clipped else wf
     terms = sum_terms(wfn, wf_el, wn, ws, tau, slip, fs_sum)
     live = [i for i, term in enumerate(terms) if not is_zero(term)]
+    springs = []
+    if fs_arr is not None and len(pts) <= SPRINGS_SUMMED:
+        # each point's new spring as one more sum, the other point's masked out: the point
+        # law is then evaluated once for the sums and the springs alike (sliced out of the
+        # points' array, each spring's fusion evaluated it again)
+        index = jnp.arange(len(pts))
+        springs = [jnp.where(index == i, fs_arr, 0.0) for i in range(len(pts))]
+    totals = sum_together(*(terms[i] for i in live), *springs)
     sums = [0.0] * len(terms)
-    for i, total in zip(live, sum_together(*(terms[i] for i in live))):
+    for i, total in zip(live, totals):
         sums[i] = total
-    return sums, fs_arr
+    if springs:
+        return sums, tuple(totals[len(live) :])
+    return sums, None if fs_arr is None else tuple(fs_arr[i] for i in range(len(pts)))
 
 
 def face_ends(p: DemParams, st: DemState, motion=None, one_history: bool = False):
@@ -368,7 +387,7 @@ def interface(
         # the weights above carry the areas, and the shear sums each point's stick
         kn_c, ks_d = p.kn_line[k], p.ks_line[k]
         f_s, fs_mom_tau = fs_tot, fs_tau
-        fs_new = tuple(fs_arr[i] for i in range(len(pts)))
+        fs_new = fs_arr
     ft = f_s - beta * ks_d * v0
     # a moving wall's normal force acts along its normal (1, -slope) (not normalised: fn is
     # the horizontal component, as in rockjax.simulate_dem); the dashpot matrix keeps the

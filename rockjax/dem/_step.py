@@ -10,6 +10,15 @@ theta are carried and advanced by the exact rotation through ``dtheta = dt w``, 
 cosine and sine from their Taylor series: ``|dtheta| < 1e-2`` in any stable step, so the
 truncation (``dtheta^6/720``) is below 1e-15, and no transcendental function is evaluated in
 the loop.
+
+The solve: every new velocity and position reads the accelerations, and XLA:CPU would copy
+the solve into each of them; it is kept as one computation (:func:`rockjax._fusion.one_computation`,
+a ``cond``) in a history and in batches of assemblies, and in batches of single blocks as
+a reduction (:func:`rockjax._fusion.computed_once`), which needs no predicate over the batch.
+Measured (docs/benchmarks.md, "Batches of single blocks: the solve without a cond"): a batch
+of single blocks in chunks of 256 without the hoisting pass ran 1.1-1.2x faster that way, the
+hoisted chunks of 64 as fast; a batch of 16 four-block assemblies ran 6x slower, so they keep
+the ``cond``.
 """
 
 from __future__ import annotations
@@ -167,7 +176,11 @@ def step(
         lower.append(None if clow[k] is None else scale(h, clow[k]))
         rhs.append([force[k][0] - mk * ag, force[k][1] - mk * (G + ag_v), plus(force[k][2])])
     solve = solve_ldl if ldl else solve_tridiagonal
-    acc = one_computation(solve, diag, lower, rhs)
+    if one_history or n > 1:
+        acc = one_computation(solve, diag, lower, rhs)
+    else:  # a batch of single blocks: no cond (module docstring, "The solve")
+        acc = solve(diag, lower, rhs)
+        acc = [computed_once(*acc[0])]
     new = {f: [] for f in (*STATE_FIELDS, "d_max")}
     for k in range(n):
         ax, ay, aw = acc[k]
