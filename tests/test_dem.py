@@ -190,6 +190,35 @@ def test_jit_matches_eager_and_vmap_matches_loop(parapet):
     np.testing.assert_allclose(jitted, looped[1], rtol=1e-12)
 
 
+def test_two_corners_vmap_matches_loop(parapet):
+    """Two corner sub-contacts in a batch, whose step keeps its solve whole as a reduction
+    where one history keeps it as a cond (docs/benchmarks.md, "Batches of single blocks: the
+    solve without a cond"): the batch's runs equal the same runs one by one to round-off,
+    rotations and shear forces alike (a wrong batched solve moves them by the size of the
+    forces). Which corner gets which spring is pinned by the stored histories of two-corner
+    runs (test_dem_reference.py)."""
+    beta = rj.beta_dejong(parapet)
+    dt = rj.stable_dt(parapet, beta, joint=CORNERS)
+    amps = jnp.array([-1.5, 0.5, 1.2]) * G * float(parapet.b / parapet.h)
+    base = rj.GroundMotion.sine_cycle(pga=1.0, period=0.5, duration=2.0)
+
+    def run(a):
+        gm = rj.GroundMotion(ag=a * jnp.asarray(base.ag), dt=base.dt)
+        r = rj.simulate_dem(
+            parapet, gm, beta=beta, dt=dt, joint=CORNERS, save=("forces",), throw=False
+        )
+        return r.theta, r.extras["shear_forces"]
+
+    theta, shear = jax.vmap(run)(amps)
+    for i, a in enumerate(amps):
+        theta_i, shear_i = run(a)
+        assert float(jnp.max(jnp.abs(theta_i))) > 1e-3 or i == 1  # the others rock
+        np.testing.assert_allclose(theta[i], theta_i, rtol=0, atol=1e-12)
+        scale = float(jnp.max(jnp.abs(shear_i)))
+        assert scale > 0.0
+        np.testing.assert_allclose(shear[i], shear_i, rtol=0, atol=1e-10 * scale)
+
+
 def test_large_batch_equals_loop(parapet):
     """A batch of 128 lanes (a program of its own: no one-history computations) gives the
     same runs to round-off. Reference: eager runs of every 16th lane."""
