@@ -13,9 +13,10 @@ summed, XLA:CPU evaluated the point law again for every sum).
 Under ``vmap`` a ``cond`` costs time instead (its results are materialised as vectors and the
 batch's predicate reduced every step), so :func:`one_computation` is used in one history
 (the DEM driver's ``one_history``, any run that is not batched: the end kinematics of its
-faces) and for the step's solve; docs/benchmarks.md "One history", docs/assemblies.md
-"Performance". :func:`computed_once` (a reduction again) keeps single values whole in batches
-and histories alike.
+faces) and for the step's solve in a history and in an assembly's batch; docs/benchmarks.md
+"One history", docs/assemblies.md "Performance". :func:`computed_once` (a reduction again)
+keeps single values whole in batches and histories alike, and a batch of single blocks' solve
+(docs/benchmarks.md, "Batches of single blocks: the solve without a cond").
 """
 
 import equinox as eqx
