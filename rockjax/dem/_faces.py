@@ -303,6 +303,7 @@ def interface(
     wall: bool = False,
     motion=None,
     once: bool = False,
+    whole: bool = True,
 ):
     """Forces of interface ``k`` (integrated face law or point sub-contacts), or with ``wall``
     of block ``k``'s back face on the return wall (a body moved by ``motion``, see
@@ -315,7 +316,12 @@ def interface(
     lower body's normal; a moving wall's: its horizontal component), the power of a moving
     wall on the block [W] (0 otherwise) and the total shear force [N] (spring and dashpot,
     along the lower body's tangent), both on the upper block, dashpots at the lagged
-    velocity."""
+    velocity.
+
+    ``whole``: keep the values that many others read (the face's cuts, its shear spring and
+    the spring's dashpot) as one computation each (:func:`rockjax._fusion.computed_once`);
+    ``once``: the dashpot blocks' moments too. The step of one history of a single block
+    passes neither (:func:`rockjax.dem.step`)."""
     line = None
     if wall:
         _, e1, e2, rel, line = wall_kinematics(p, st, k, motion)
@@ -352,7 +358,8 @@ def interface(
         if clipped:
             cuts = insert_cut(cuts, crossing(lo, hi, d_lo + beta * r_lo, d_hi + beta * r_hi))
         # each cut is read by the positions and weights of the points either side of it
-        cuts = [lo, *computed_once(*cuts[1:-1]), hi]
+        if whole:
+            cuts = [lo, *computed_once(*cuts[1:-1]), hi]
         pts = []
         for a, b_ in zip(cuts[:-1], cuts[1:]):
             mid, half = 0.5 * (a + b_), 0.5 * (b_ - a)
@@ -379,7 +386,9 @@ def interface(
         f_s, stick = coulomb(f_s - ks * v0 * dt, p.tan_phi * fn_el)
         # the shear dashpot's stiffness: state-dependent now, and read by the forces and the
         # dashpot blocks, so computed once with the spring
-        f_s, ks_d = computed_once(f_s, stick * ks)
+        ks_d = stick * ks
+        if whole:
+            f_s, ks_d = computed_once(f_s, ks_d)
         tau_bar = jnp.where(s0 > 0.0, s1 / jnp.where(s0 > 0.0, s0, 1.0), 0.0)
         fs_new = (f_s,)
         fs_mom_tau = f_s * tau_bar  # int of the spring force times tau

@@ -33,10 +33,11 @@ from ._faces import face_ends, face_energy, interface
 from ._params import STATE_FIELDS, DemParams, DemState, as_arrays, as_tuples, span
 
 
-def top(p: DemParams, st: DemState, dt, top_motion=None):
+def top(p: DemParams, st: DemState, dt, top_motion=None, whole: bool = True):
     """Overburden and top restraint on the top block: generalised force and dashpot block.
     ``top_motion``: the restraint's displacement [m] and velocity [m/s] relative to the base
-    (``None``: it moves with the base)."""
+    (``None``: it moves with the base); ``whole``: the restraint's force and dashpot kept as
+    one computation each (:func:`rockjax.dem.step`)."""
     k = p.n - 1
     c, s = st.c[k], st.s[k]
     rx, ry = 0.5 * p.h[k] * s, 0.5 * p.h[k] * c  # top face centre from the centroid
@@ -60,8 +61,8 @@ def top(p: DemParams, st: DemState, dt, top_motion=None):
         wr = frac_r if p.dashpot != "clipped" else jnp.where(f_r > 0, frac_r, 0.0)
         wl = frac_l if p.dashpot != "clipped" else jnp.where(f_l > 0, frac_l, 0.0)
         cq = p.beta * p.k_top * (wr + wl)
-        # each read by several entries of the force and the dashpot matrix
-        fq, cq = computed_once(fq, cq)
+        if whole:  # each read by several entries of the force and the dashpot matrix
+            fq, cq = computed_once(fq, cq)
         fx = fx + fq
         mom = mom + ry * fq
         a = (1.0, 0.0, ry)
@@ -126,6 +127,10 @@ def step(
         return as_arrays(new), acc, power, forces
     ldl = one_history or p.n <= LDL_BATCH_MAX_BLOCKS
     n = p.n
+    # values read by many kept whole, except in one history of a single block without a
+    # return wall (module docstring, "Values read by many")
+    whole = not (one_history and n == 1 and not p.one_sided)
+    kept = dict(once=ldl and whole, whole=whole)
     force = [[0.0, 0.0, 0.0] for _ in range(n)]
     cdiag = [[[0.0] * 3 for _ in range(3)] for _ in range(n)]
     clow = [None] * n
@@ -133,7 +138,7 @@ def step(
     joint_ends, wall_ends = face_ends(p, st, wall, one_history)
     for j, (k, other, _) in enumerate(p.links):
         f_u, f_l, c_uu, c_ll, c_ul, fs_new, fn, _, ft = interface(
-            p, st, j, dt, joint_ends[j], once=ldl
+            p, st, j, dt, joint_ends[j], **kept
         )
         fs_all.append(fs_new)
         fn_all.append(fn)
@@ -149,14 +154,14 @@ def step(
     if p.one_sided:  # a static choice: walls without return walls run none of this
         for k in range(n):
             f_w, _, c_w, _, _, fs_new, fn, pw, _ = interface(
-                p, st, k, dt, wall_ends[k], wall=True, motion=wall, once=ldl
+                p, st, k, dt, wall_ends[k], wall=True, motion=wall, **kept
             )
             power = power + pw
             fs_wall.append(fs_new)
             fn_wall.append(fn)
             force[k] = [plus(force[k][i], f_w[i]) for i in range(3)]
             cdiag[k] = add(cdiag[k], c_w)
-    f_top, c_top = top(p, st, dt, top_motion)
+    f_top, c_top = top(p, st, dt, top_motion, whole)
     force[n - 1] = [plus(force[n - 1][i], f_top[i]) for i in range(3)]
     if load is not None:
         force = [[plus(force[k][i], load[k][i]) for i in range(3)] for k in range(n)]
