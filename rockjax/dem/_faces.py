@@ -321,7 +321,7 @@ def interface(
     ``whole``: keep the values that many others read (the face's cuts, its shear spring and
     the spring's dashpot) as one computation each (:func:`rockjax._fusion.computed_once`);
     ``once``: the dashpot blocks' moments too. The step of one history of a single block
-    passes neither (:func:`rockjax.dem.step`)."""
+    without a return wall passes neither (:func:`rockjax.dem.step`)."""
     line = None
     if wall:
         _, e1, e2, rel, line = wall_kinematics(p, st, k, motion)
