@@ -204,7 +204,7 @@ LAST_RESPONSE: list = []
 returns its own. A loop that dropped each Response before the next call freed the top of the
 process's heap, glibc's allocator gave those pages back to the system, and the next run
 faulted them in again: 525 page faults and 0.6 ms of a 20 s history's 3.8 ms, against 4-118
-faults with the last Response kept (docs/benchmarks.md, "One history as a user runs it")."""
+faults with the last Response kept (docs/benchmarks.md, "One history: values read by many")."""
 
 
 def simulate_assembly(assembly: Assembly, motion: GroundMotion | None = None, **kw):

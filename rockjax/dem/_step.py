@@ -17,7 +17,7 @@ a ``cond``) in a history and in batches of assemblies, and in batches of single 
 a reduction (:func:`rockjax._fusion.computed_once`), which needs no predicate over the batch.
 Measured (docs/benchmarks.md, "Batches of single blocks: the solve without a cond"): a batch
 of single blocks in chunks of 256 without the hoisting pass ran 1.1-1.2x faster that way, the
-hoisted chunks of 64 as fast; a batch of 16 four-block assemblies ran 6x slower, so they keep
+hoisted chunks of 64 as fast; a batch of 16 four-block assemblies ran 6.6x slower, so they keep
 the ``cond``.
 
 Values read by many: a face's cuts, its shear spring and the spring's dashpot, the dashpot
