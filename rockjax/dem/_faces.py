@@ -371,7 +371,7 @@ def interface(
         wts[0] = wts[-1] = 0.5
         step = width / (n_sub - 1)
         pts = [(lo + step * i, wts[i] * step) for i in range(n_sub)]
-    sums, fs_arr = point_sums(
+    sums, fs_points = point_sums(
         p, k, pts, lo, width, ends, hist, p.kn_line[k], beta, dt, dt_onset, clipped
     )
     fn, fn_el, fn1, n0, n1, n2, s0, s1, s2, v0, v1, fs_tot, fs_tau = (sums[i] for i in range(13))
@@ -396,7 +396,7 @@ def interface(
         # the weights above carry the areas, and the shear sums each point's stick
         kn_c, ks_d = p.kn_line[k], p.ks_line[k]
         f_s, fs_mom_tau = fs_tot, fs_tau
-        fs_new = fs_arr
+        fs_new = fs_points
     ft = f_s - beta * ks_d * v0
     # a moving wall's normal force acts along its normal (1, -slope) (not normalised: fn is
     # the horizontal component, as in rockjax.simulate_dem); the dashpot matrix keeps the

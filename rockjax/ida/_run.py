@@ -36,7 +36,6 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
         "status": np.zeros((n_rec, n_scale), np.int32),
     }
     bar = _progress.bar(progress, total=n_rec * n_scale, desc="rockjax.ida", unit="run")
-    seen: set[float] = set()
     # the block, beta, e and a facade's gap as data (arrays), not static Python numbers: one
     # program for every value (rockjax.compilation.strong_scalars)
     model = map_numbers(plan.config["model"], strong_scalars)
@@ -54,8 +53,6 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
         # padding: repeats of the group's last run in chunk order (its strongest, which
         # collapses first of all), dropped
         flat = np.where(real, flat, n_runs_g - 1)
-        if g.dt not in orders:
-            orders[g.dt] = run_order(plan, g)
         local, j = orders[g.dt][0][flat], orders[g.dt][1][flat]
         ag, ag_v = place.replicated(g.ag), place.replicated(g.ag_v)
         rec_k, scale_k = place.split(local.astype(np.int32)), place.split(plan.scales[j])
@@ -122,8 +119,9 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
     threaded = place.threads > 1
     with concurrent.futures.ThreadPoolExecutor(max_workers=place.threads) as pool:
         for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
-            first = g.dt not in seen
-            seen.add(g.dt)
+            first = g.dt not in orders  # the group's first chunk
+            if first:
+                orders[g.dt] = run_order(plan, g)
             while len(jobs) >= place.threads:
                 collect()
             chunk, options, local, j, real = prepare(g, k, size, n_runs_g)
