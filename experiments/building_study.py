@@ -56,8 +56,8 @@ written to ``<out>/quick`` when ``--out`` is the default.
 from __future__ import annotations
 
 import argparse
-import concurrent.futures
 import csv
+import functools
 import json
 import math
 import pathlib
@@ -70,9 +70,9 @@ import jax.numpy as jnp
 import numpy as np
 
 import rockjax as rj
+from rockjax.batching import host_threads, in_threads
 from rockjax.building import ShearBuilding
 from rockjax.constants import G
-from rockjax.ida import host_threads
 from rockjax.supports import wall_top_motion
 
 GEOMETRIES = {  # label: (h, b) [m]
@@ -300,12 +300,11 @@ def run_pairs(block, model, mode, beta, group: Group, ag, wall, rows, scales, ch
         return tuple(np.asarray(a) for a in out)
 
     # the first chunk compiles, alone; the others run one per core at once, as rj.ida's
-    # (rockjax.ida.host_threads; the same results to the bit)
-    starts = list(range(0, n + pad, chunk))
-    first = [chunk_at(starts[0])]
-    with concurrent.futures.ThreadPoolExecutor(max_workers=host_threads()) as pool:
-        parts = first + list(pool.map(chunk_at, starts[1:]))
-    col, st, pk = zip(*parts)
+    # (rockjax.batching.in_threads, host_threads; the same results to the bit)
+    starts = range(0, n + pad, chunk)
+    tasks = ((functools.partial(chunk_at, k), k == 0) for k in starts)
+    parts = dict(in_threads(tasks, host_threads()))
+    col, st, pk = zip(*(parts[i] for i in sorted(parts)))
     return np.concatenate(col)[:n], np.concatenate(st)[:n], np.concatenate(pk)[:n]
 
 

@@ -13,8 +13,9 @@ loops run faster as XLA's separate vectorised kernels. Measured on 2 cores (1024
 3.2-3.3e7 with it, chunks of 64 at 4.2e7 either way, chunks of 32 at 2.6e7 without and 3.6e7
 with it.
 
-:func:`vmap_chunks` does this for any function of one run; :data:`WIDE_BATCH_OPTIONS` are the
-compiler options of a wide batch, for a ``jax.jit`` of one's own::
+:func:`vmap_chunks` does this for any function of one run; :func:`in_threads` runs any calls
+so (the chunks of :func:`rockjax.ida`, a study's own chunks); :data:`WIDE_BATCH_OPTIONS` are
+the compiler options of a wide batch, for a ``jax.jit`` of one's own::
 
     batch = jax.jit(jax.vmap(one_run), compiler_options=rj.batching.WIDE_BATCH_OPTIONS)
 """
@@ -22,8 +23,10 @@ compiler options of a wide batch, for a ``jax.jit`` of one's own::
 from __future__ import annotations
 
 import concurrent.futures
+import functools
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
+from typing import Any
 
 import jax
 import numpy as np
@@ -58,6 +61,42 @@ def host_threads() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # (not on every platform)
         return max(1, os.cpu_count() or 1)
+
+
+def in_threads(tasks: Iterable[tuple[Callable[[], Any], bool]], threads: int) -> Iterator:
+    """Run ``tasks`` ``threads`` at a time, each call in a thread of its own, and yield
+    ``(i, result)`` of the ``i``-th task as each ends (not in order).
+
+    ``tasks`` yields ``(call, alone)``: a function of no arguments, and whether it runs alone
+    (e.g. it compiles, and the others would compile its program again): it waits for the
+    running calls to end, and runs in the caller's thread before the next task is taken. A
+    task is taken from ``tasks`` only when a thread is free for it, so the work that makes a
+    task (placing its inputs) overlaps the calls that run. With one thread every call runs in
+    the caller's thread, in order. Used by :func:`vmap_chunks` and :func:`rockjax.ida`, with
+    :func:`host_threads` threads on a host CPU.
+    """
+    if threads == 1:
+        for i, (call, _) in enumerate(tasks):
+            yield i, call()
+        return
+    with concurrent.futures.ThreadPoolExecutor(threads) as pool:
+        running: dict[concurrent.futures.Future, int] = {}
+
+        def ended(limit):  # wait until fewer than `limit` calls run; the ended ones
+            while len(running) >= limit:
+                done, _ = concurrent.futures.wait(
+                    running, return_when=concurrent.futures.FIRST_COMPLETED
+                )
+                yield from ((running.pop(job), job.result()) for job in done)
+
+        for i, (call, alone) in enumerate(tasks):
+            if alone:
+                yield from ended(1)
+                yield i, call()
+            else:
+                yield from ended(threads)
+                running[pool.submit(call)] = i
+        yield from ended(1)
 
 
 def batch_options(runs: int) -> dict:
@@ -134,9 +173,9 @@ def vmap_chunks(fn: Callable, chunk_size: int = CHUNK, threads: int | None = Non
             part = [x[rows[start : start + size]] for x in leaves]
             return jax.device_get(programs[size](*jax.tree.unflatten(treedef, part)))
 
-        first = [chunk(starts[0])] if compiles else []  # a chunk that compiles runs alone
-        with concurrent.futures.ThreadPoolExecutor(threads or host_threads()) as pool:
-            parts = first + list(pool.map(chunk, starts[len(first) :]))
-        return jax.tree.map(lambda *xs: np.concatenate(xs)[:n], *parts)
+        # a chunk that compiles runs alone
+        tasks = ((functools.partial(chunk, s), compiles and s == 0) for s in starts)
+        parts = dict(in_threads(tasks, threads or host_threads()))
+        return jax.tree.map(lambda *xs: np.concatenate(xs)[:n], *(parts[i] for i in sorted(parts)))
 
     return batched

@@ -1,5 +1,9 @@
-"""Tests of rockjax.batching: chunks of a vmap batch in threads against single runs, the wide
-batch's compiler options, and bad arguments."""
+"""Tests of rockjax.batching: chunks of a vmap batch in threads against single runs, the calls
+in threads (which run alone, how many at once), the wide batch's compiler options, and bad
+arguments."""
+
+import threading
+import time
 
 import jax
 import jax.numpy as jnp
@@ -7,7 +11,7 @@ import numpy as np
 import pytest
 
 import rockjax as rj
-from rockjax.batching import WIDE_BATCH, WIDE_BATCH_OPTIONS, batch_options
+from rockjax.batching import WIDE_BATCH, WIDE_BATCH_OPTIONS, batch_options, in_threads
 
 RTOL = 1e-12
 """A batch against single runs, or two compilations of one batch: the same float64
@@ -47,6 +51,70 @@ def test_chunks_in_threads_match_single_runs():
             assert out[k].shape == ref[k].shape
             np.testing.assert_allclose(out[k], ref[k], rtol=RTOL, atol=1e-15)
     assert np.ptp(ref["theta_max"]) > 1e-3  # the runs differ: a mix-up of rows would show
+
+
+class _Calls:
+    """Calls that record how many run at once, in which thread, and how many tasks were
+    taken while they ran."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.running = 0
+        self.taken = 0
+        self.seen = []  # per call: (its index, calls running with it, tasks taken, thread)
+
+    def tasks(self, alone):
+        for i, a in enumerate(alone):
+            with self.lock:
+                self.taken += 1
+            yield (lambda i=i: self.call(i)), a
+
+    def call(self, i):
+        with self.lock:
+            self.running += 1
+            self.seen.append((i, self.running, self.taken, threading.get_ident()))
+        time.sleep(0.02)
+        with self.lock:
+            self.running -= 1
+        return 10 * i
+
+
+def test_in_threads_runs_alone_tasks_alone():
+    """Eight calls on three threads, the first and the fifth alone: every result once, at
+    most three calls at once, the alone ones by themselves and in the caller's thread, and
+    no task taken before a thread is free for it."""
+    calls = _Calls()
+    alone = [True, False, False, False, True, False, False, False]
+    got = dict(in_threads(calls.tasks(alone), 3))
+    assert got == {i: 10 * i for i in range(8)}
+    seen = {i: rest for i, *rest in calls.seen}
+    assert max(running for running, _, _ in seen.values()) == 3  # the threads were used
+    for i in (0, 4):
+        assert seen[i][0] == 1
+        assert seen[i][2] == threading.get_ident()
+    # a task is taken when a thread is free: never more than three taken and unfinished
+    assert all(taken <= i + 3 for i, (_, taken, _) in seen.items())
+
+
+def test_in_threads_one_thread_runs_in_order_here():
+    """One thread: every call in the caller's thread, one after another, in order."""
+    calls = _Calls()
+    got = list(in_threads(calls.tasks([False] * 4), 1))
+    assert got == [(i, 10 * i) for i in range(4)]
+    assert [(i, r, t) for i, r, _, t in calls.seen] == [
+        (i, 1, threading.get_ident()) for i in range(4)
+    ]
+
+
+def test_in_threads_passes_errors_on():
+    """A call that raises raises in the caller."""
+
+    def bad():
+        raise ValueError("from a thread")
+
+    tasks = [(lambda: 1, False), (bad, False), (lambda: 3, False)]
+    with pytest.raises(ValueError, match="from a thread"):
+        list(in_threads(iter(tasks), 2))
 
 
 def test_inside_jit_is_vmap():

@@ -3,10 +3,8 @@ solved once per record."""
 
 from __future__ import annotations
 
-import concurrent.futures
 import functools
 import math
-from concurrent.futures import Future
 
 import jax
 import jax.numpy as jnp
@@ -15,6 +13,7 @@ import numpy as np
 from .. import _progress
 from .._lazy import lazy_module
 from ..assembly import Assembly
+from ..batching import in_threads
 from ..compilation import persistent_jit, strong_scalars
 from ..housner import batch_runs
 from ..models import map_numbers
@@ -94,50 +93,34 @@ def run_plan(plan: Plan, place: Placement, progress: bool | None) -> dict[str, n
         options = dict(model=model, mode=mode, dt_rec=g.dt, dt_bound=dt_bound, mesh=place.mesh)
         return chunk, options, local, j, real
 
-    # the chunks run in place.threads threads at once (rockjax.ida.host_threads: each on a
-    # core of a host CPU; one thread: the caller's); a chunk that compiles runs alone (the
-    # others would compile its program again), and the bar says so. A thread takes the next
-    # chunk as soon as it is free: the chunks' costs differ (runs ordered by PGV, run_order)
-    jobs: list = []
+    # the chunks run in place.threads threads at once (rockjax.batching.in_threads; on a host
+    # CPU rockjax.ida.host_threads, each on a core; one thread: the caller's); a chunk that
+    # compiles runs alone (the others would compile its program again), and the bar says so.
+    # A thread takes the next chunk as soon as it is free: the chunks' costs differ (runs
+    # ordered by PGV, run_order)
+    where = []  # per chunk: its group's records, and its records (local), scales, real runs
 
-    def collect():
-        """Wait for a chunk to end; take the results of every chunk that has ended."""
-        running = [job for job, *_ in jobs if isinstance(job, Future)]
-        if running:
-            concurrent.futures.wait(running, return_when=concurrent.futures.FIRST_COMPLETED)
-        ended = [not isinstance(e[0], Future) or e[0].done() for e in jobs]
-        taken = [e for e, end in zip(jobs, ended) if end]
-        jobs[:] = [e for e, end in zip(jobs, ended) if not end]
-        for job, index, local, j, real in taken:
-            out = job.result() if isinstance(job, Future) else job
-            if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
-                grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
-            for key in grids:
-                grids[key][index[local[real]], j[real]] = np.asarray(out[key])[real]
-            bar.update(int(real.sum()))
-
-    threaded = place.threads > 1
-    with concurrent.futures.ThreadPoolExecutor(max_workers=place.threads) as pool:
+    def tasks():
         for n, (g, k, size, n_runs_g) in enumerate(plan.chunks):
             first = g.dt not in orders  # the group's first chunk
             if first:
                 orders[g.dt] = run_order(plan, g)
-            while len(jobs) >= place.threads:
-                collect()
             chunk, options, local, j, real = prepare(g, k, size, n_runs_g)
             alone = first and run_chunk.will_compile(*chunk, **options)
             bar.set_postfix_str(
                 f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s"
                 + (", compiling" if alone else "")
             )
-            job = pool.submit(outputs, chunk, options) if threaded else outputs(chunk, options)
-            jobs.append((job, g.index, local, j, real))
-            if alone:
-                while jobs:
-                    collect()
-                bar.set_postfix_str(f"chunk {n + 1}/{len(plan.chunks)}, dt = {g.dt:g} s")
-        while jobs:
-            collect()
+            where.append((g.index, local, j, real))
+            yield functools.partial(outputs, chunk, options), alone
+
+    for n, out in in_threads(tasks(), place.threads):
+        index, local, j, real = where[n]
+        if "t_heel" in out and "t_heel" not in grids:  # (Housner with a moving wall)
+            grids["t_heel"] = np.full((n_rec, n_scale), np.nan)
+        for key in grids:
+            grids[key][index[local[real]], j[real]] = np.asarray(out[key])[real]
+        bar.update(int(real.sum()))
     bar.close()
     return grids
 
