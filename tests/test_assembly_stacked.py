@@ -141,6 +141,24 @@ def test_stacked_program_does_not_grow_with_the_stack():
     assert sizes[0] == sizes[1], sizes
 
 
+def test_a_batch_of_stacks_keeps_its_solve_out_of_library_reductions():
+    """A batch of 64 six-block stacks: the solve's entries, 6 x 64 x 21 values, are kept whole
+    by one reduction of 21 outputs, which XLA:CPU compiles itself. One reduction per array
+    (``diag`` alone: 6 x 64 x 9 values) went to the YNNPACK library (``__ynn_fusion``), where
+    a batch of tall stacks stepped 1.6x slower (docs/benchmarks.md, "Tall walls"). On a
+    jaxlib without YNNPACK there is nothing to find."""
+    asm = _stack(dem.STACKED_MIN_BLOCKS)
+    p = dem.dem_params(asm, 1e-3)
+    st0 = dem.initial_state(asm, p)
+    ags = jnp.ones((64, 3))
+
+    def one(ag):
+        return dem.run(p, st0, ag, jnp.zeros_like(ag), 1e-4, DT_OUT, 100).theta_max
+
+    text = jax.jit(jax.vmap(one)).lower(ags).compile().as_text()
+    assert "__ynn_fusion" not in text
+
+
 @pytest.mark.slow  # 20-23 s (three runs of a tall stack); ./test.sh -m slow
 def test_grad_through_a_tall_stack_matches_finite_differences():
     asm = _stack(8)

@@ -160,17 +160,27 @@ def solve_chain(diag, lower, rhs):
     entry as an array of its own (over the blocks; in a batch, a row of the batch's values
     at each block), so that a step of the loop reads contiguous values. Block cyclic reduction
     (``log2 n`` levels of array operations) ran as fast in one history, 2.4 times slower in a
-    batch of 16 fifty-block stacks, and compiled slower."""
-    # built from every joint's forces and dashpots, and read by many entries: computed once
-    (diag,), (lower,), (rhs,) = computed_once(diag), computed_once(lower), computed_once(rhs)
+    batch of 16 fifty-block stacks, and compiled slower.
 
-    def entries(a):  # (m, 3, 3) -> nested lists of (m,) arrays
-        return [[a[:, i, j] for j in range(3)] for i in range(3)]
+    The system's entries are computed once by entry, in two reductions with many outputs
+    (:func:`rockjax._fusion.computed_once`): the diagonal blocks' and the right-hand side's
+    12, the sub-diagonal blocks' 9. Kept whole one array at a time, an array of a few
+    thousand values or more (``diag`` of a batch of 16 twenty-block stacks) was a reduction of
+    one output, which XLA:CPU (jaxlib 0.10) hands to its YNNPACK library (``__ynn_fusion``),
+    and there a batch of 16 stacks stepped at 229-236 ns a block-step from 20 to 100 blocks
+    instead of 116-150 (docs/benchmarks.md, "Tall walls: the solve's reductions")."""
+
+    def entries(a):  # (m, 3, 3) -> the (m,) arrays of its entries, row by row
+        return [a[:, i, j] for i in range(3) for j in range(3)]
 
     def at(m, k):
         return [[v[k] for v in row] for row in m]
 
-    d, low, r = entries(diag), entries(lower), [rhs[:, i] for i in range(3)]
+    # built from every joint's forces and dashpots, and read by many entries: computed once
+    flat = computed_once(*entries(diag), *(rhs[:, i] for i in range(3)))
+    d, r = [list(flat[3 * i : 3 * i + 3]) for i in range(3)], list(flat[9:])
+    flat = computed_once(*entries(lower))
+    low = [list(flat[3 * i : 3 * i + 3]) for i in range(3)]
 
     def forward(carry, x):
         inv_prev, g_prev = carry
