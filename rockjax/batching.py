@@ -69,11 +69,11 @@ def in_threads(tasks: Iterable[tuple[Callable[[], Any], bool]], threads: int) ->
 
     ``tasks`` yields ``(call, alone)``: a function of no arguments, and whether it runs alone
     (e.g. it compiles, and the others would compile its program again): it waits for the
-    running calls to end, and runs in the caller's thread before the next task is taken. A
-    task is taken from ``tasks`` only when a thread is free for it, so the work that makes a
-    task (placing its inputs) overlaps the calls that run. With one thread every call runs in
-    the caller's thread, in order. Used by :func:`vmap_chunks` and :func:`rockjax.ida`, with
-    :func:`host_threads` threads on a host CPU.
+    running calls to end, and runs in the caller's thread before the next task is taken. The
+    tasks are taken one at a time: the next one is made (e.g. its inputs placed) while the
+    running calls go on, and waits for a free thread, so at most one task is made ahead. With
+    one thread every call runs in the caller's thread, in order. Used by :func:`vmap_chunks`
+    and :func:`rockjax.ida`, with :func:`host_threads` threads on a host CPU.
     """
     if threads == 1:
         for i, (call, _) in enumerate(tasks):
