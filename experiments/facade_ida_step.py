@@ -9,7 +9,8 @@ PGAs (0.05-2 g, geometric) on the 0.2 x 1.5 m block with a 1 mm gap (``rj.Facade
 
 1. **Cost**: the same IDA as a parapet, as a facade at the default step, with Housner, and as
    a facade whose return wall is out of reach (a 0.5 m gap: every sample in open steps, the
-   floor of a facade's cost under its open steps' accuracy),
+   floor of a facade's cost under its open steps' accuracy), and as a parapet at the
+   facade's step accuracy (``rj.Facade.dt_accuracy``: the two at equal accuracy),
    each timed on its second call (warm: compiled), with its chunks in threads (the default,
    ``rockjax.ida.host_threads``) and one at a time (``devices`` named). Run it with another
    checkout on ``PYTHONPATH`` to time that code alike.
@@ -48,6 +49,7 @@ REFERENCE_ACCURACY = 0.175
 ACCURACIES = (0.35, 0.7, 1.0)
 ROCKS = 0.01  # d/b of the reference above which a run counts as rocking
 FAR_GAP = 0.5  # [m]: a return wall the block never reaches (cost part only)
+EQUAL = "parapet DEM, facade accuracy"  # (cost part only)
 
 
 def load() -> str:
@@ -124,6 +126,9 @@ def main() -> None:
         # the floor of the facade's cost: its wall never in reach (every sample in open steps;
         # it rocks as the parapet does)
         ("facade DEM, wall out of reach", rj.DEM(beta=beta), rj.Facade(gap=FAR_GAP), None),
+        # the parapet at the facade's step accuracy: what the facade's wall and open steps
+        # cost at equal accuracy
+        (EQUAL, rj.DEM(beta=beta, accuracy=rj.Facade.dt_accuracy), rj.Parapet(), None),
     ):
         _, first = ida(recs, scales, model, mode, chunk)
         ds, warm = ida(recs, scales, model, mode, chunk)
@@ -138,9 +143,10 @@ def main() -> None:
         )
     ratio = cost["facade DEM"]["warm_s"] / cost["parapet DEM"]["warm_s"]
     floor = cost["facade DEM, wall out of reach"]["warm_s"] / cost["parapet DEM"]["warm_s"]
+    equal = cost["facade DEM"]["warm_s"] / cost[EQUAL]["warm_s"]
     print(
         f"  facade / parapet (warm): {ratio:.2f}x; with its wall out of reach {floor:.2f}x; "
-        f"threads {host_threads()}",
+        f"facade / parapet at the facade's accuracy {equal:.2f}x; threads {host_threads()}",
         flush=True,
     )
     summary["cost"] = cost
