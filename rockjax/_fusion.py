@@ -89,7 +89,7 @@ def computed_once(*values):
 
     Pass the values kept whole together: one reduction with many outputs. A reduction of one
     output over a few thousand values or more XLA:CPU (jaxlib 0.10) hands to its YNNPACK
-    library, which ran a batch of tall stacks 1.6-1.9x slower
-    (:func:`rockjax.dem._stacked.solve_chain`); a reduction of several outputs it compiles
-    itself."""
+    library, where a batch of 16 stacks of 20-100 blocks took 1.4-1.7x the CPU time a
+    block-step (1.5-2.0x the time on one core; :func:`rockjax.dem._stacked.solve_chain`); a
+    reduction of several outputs it compiles itself."""
     return sum_together(*(jnp.stack([v, jnp.zeros_like(v)], axis=-1) for v in values))

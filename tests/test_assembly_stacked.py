@@ -145,7 +145,7 @@ def test_a_batch_of_stacks_keeps_its_solve_out_of_library_reductions():
     """A batch of 64 six-block stacks: the solve's entries (21 a block) are kept whole by two
     reductions of 12 and 9 outputs, which XLA:CPU compiles itself. One reduction per array
     (``diag`` alone: 6 x 64 x 9 values) went to the YNNPACK library (``__ynn_fusion``), where
-    a batch of tall stacks stepped 1.4-1.9x slower (docs/benchmarks.md, "Tall walls: the
+    a batch of tall stacks stepped 1.4-2.0x slower (docs/benchmarks.md, "Tall walls: the
     solve's reductions"). On a jaxlib without YNNPACK there is nothing to find."""
     asm = _stack(dem.STACKED_MIN_BLOCKS)
     p = dem.dem_params(asm, 1e-3)
