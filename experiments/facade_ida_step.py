@@ -9,8 +9,9 @@ PGAs (0.05-2 g, geometric) on the 0.2 x 1.5 m block with a 1 mm gap (``rj.Facade
 
 1. **Cost**: the same IDA as a parapet, as a facade at the default step, with Housner, and as
    a facade whose return wall is out of reach (a 0.5 m gap: every sample in open steps, the
-   floor of a facade's cost under its open steps' accuracy), and as a parapet at the
-   facade's step accuracy (``rj.Facade.dt_accuracy``: the two at equal accuracy),
+   floor of a facade's cost under its open steps' accuracy), as a parapet at the
+   facade's step accuracy (``rj.Facade.dt_accuracy``: the two at equal accuracy), and as a
+   parapet at its own calibrated ``beta`` (the parapet study a user would run),
    each timed on its second call (warm: compiled), with its chunks in threads (the default,
    ``rockjax.ida.host_threads``) and one at a time (``devices`` named). Run it with another
    checkout on ``PYTHONPATH`` to time that code alike.
@@ -19,11 +20,19 @@ PGAs (0.05-2 g, geometric) on the 0.2 x 1.5 m block with a 1 mm gap (``rj.Facade
    and the error of the peak ``d/b`` of the runs that stand in both, relative to the
    reference's (median, 95th percentile, largest), over the runs that rock (reference
    ``d/b >= 0.01``).
+3. **The parapets compared** (``--parapets``): how accurate the parapet IDAs of part 1 are,
+   the parapet at the facade's ``beta`` and at its own (``beta`` fitted to Housner's
+   ``e_H``, ``rj.fit_beta(block, e=rj.e_housner(block))``), each at ``accuracy`` 1.0 (its
+   default) and 0.35 against a reference at a quarter of 0.35, compared as in part 2; and
+   the reference's own conditioning: the reference again with every PGA scaled by
+   ``1 + 1e-6``, compared with it alike (rocking under records is chaotic near overturning:
+   what that perturbation changes, no step can be asked to hold).
 
-    python experiments/facade_ida_step.py [--out experiments/results/facade_ida_step] [--cost]
+    python experiments/facade_ida_step.py [--out experiments/results/facade_ida_step] [--cost | --parapets]
 
 ``beta`` is fitted once (``rj.fit_beta(block, mode=rj.Facade(gap=0.001))``, the facade's
-default target: its bounces) and kept in ``beta.json``. Writes ``summary.json`` and prints the
+default target: its bounces) and kept in ``beta.json``, the parapet's own likewise in
+``parapet_beta.json``. Writes ``summary.json`` and prints the
 tables quoted in docs/benchmarks.md ("Facade IDA: cost and step").
 """
 
@@ -50,6 +59,8 @@ ACCURACIES = (0.35, 0.7, 1.0)
 ROCKS = 0.01  # d/b of the reference above which a run counts as rocking
 FAR_GAP = 0.5  # [m]: a return wall the block never reaches (cost part only)
 EQUAL = "parapet DEM, facade accuracy"  # (cost part only)
+OWN = "parapet DEM, its own beta"  # (cost part only)
+PERTURBATION = 1e-6  # relative change of every PGA that screens a reference (part 3)
 
 
 def load() -> str:
@@ -67,6 +78,16 @@ def beta_of(out: pathlib.Path, mode) -> float:
         return float(json.loads(path.read_text())["beta"])
     fit = rj.fit_beta(BLOCK, mode=mode)
     path.write_text(json.dumps({"beta": float(fit.beta), "block": [0.2, 1.5], "gap": GAP}))
+    return float(fit.beta)
+
+
+def parapet_beta_of(out: pathlib.Path) -> float:
+    """The parapet's own ``beta`` [s]: fitted to Housner's ``e_H`` (kept in the folder)."""
+    path = out / "parapet_beta.json"
+    if path.is_file():
+        return float(json.loads(path.read_text())["beta"])
+    fit = rj.fit_beta(BLOCK, e=rj.e_housner(BLOCK))
+    path.write_text(json.dumps({"beta": float(fit.beta), "block": [0.2, 1.5], "e": "e_H"}))
     return float(fit.beta)
 
 
@@ -101,6 +122,9 @@ def main() -> None:
     ap.add_argument("--out", default="experiments/results/facade_ida_step")
     ap.add_argument("--quick", action="store_true", help="4 components x 5 scales (a smoke run)")
     ap.add_argument("--cost", action="store_true", help="part 1 only (the cost)")
+    ap.add_argument(
+        "--parapets", action="store_true", help="part 3 only (the compared parapets' accuracy)"
+    )
     args = ap.parse_args()
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -115,7 +139,14 @@ def main() -> None:
     print(f"rockjax {rj.__file__}")
     print(f"facade IDA study: {len(recs)} far-field components x {scales.size} scales, "
           f"0.2 x 1.5 m, gap {GAP} m, beta {beta:.4g} s; load {load()}", flush=True)  # fmt: skip
+    beta_p = parapet_beta_of(out)
+    print(f"the parapet's own beta (fitted to e_H): {beta_p:.4g} s", flush=True)
     summary: dict = {"beta": beta, "n_records": len(recs), "n_scales": int(scales.size)}
+    if args.parapets:
+        summary["parapets"] = parapets(recs, scales, {"facade's": beta, "own": beta_p})
+        (out / "summary_parapets.json").write_text(json.dumps(summary, indent=2))
+        print(f"load at end {load()}")
+        return
 
     # 1. cost, warm
     cost = {}
@@ -129,6 +160,8 @@ def main() -> None:
         # the parapet at the facade's step accuracy: what the facade's wall and open steps
         # cost at equal accuracy
         (EQUAL, rj.DEM(beta=beta, accuracy=rj.Facade.dt_accuracy), rj.Parapet(), None),
+        # the same block as a parapet study runs it: at its own calibrated beta, default step
+        (OWN, rj.DEM(beta=beta_p), rj.Parapet(), None),
     ):
         _, first = ida(recs, scales, model, mode, chunk)
         ds, warm = ida(recs, scales, model, mode, chunk)
@@ -144,9 +177,11 @@ def main() -> None:
     ratio = cost["facade DEM"]["warm_s"] / cost["parapet DEM"]["warm_s"]
     floor = cost["facade DEM, wall out of reach"]["warm_s"] / cost["parapet DEM"]["warm_s"]
     equal = cost["facade DEM"]["warm_s"] / cost[EQUAL]["warm_s"]
+    own = cost["facade DEM"]["warm_s"] / cost[OWN]["warm_s"]
     print(
         f"  facade / parapet (warm): {ratio:.2f}x; with its wall out of reach {floor:.2f}x; "
-        f"facade / parapet at the facade's accuracy {equal:.2f}x; threads {host_threads()}",
+        f"facade / parapet at the facade's accuracy {equal:.2f}x; facade / parapet at its "
+        f"own beta {own:.2f}x; threads {host_threads()}",
         flush=True,
     )
     summary["cost"] = cost
@@ -173,6 +208,33 @@ def main() -> None:
     summary["load_end"] = load()
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     print(f"load at end {load()}")
+
+
+def parapets(recs, scales, betas: dict) -> dict:
+    """Part 3: each parapet IDA of part 1 against a reference at a quarter of the facade's
+    step accuracy, and that reference's conditioning (:data:`PERTURBATION`)."""
+    acc_ref = 0.25 * rj.Facade.dt_accuracy
+    rows = {}
+    for name, beta in betas.items():
+        model = rj.DEM(beta=beta, accuracy=acc_ref)
+        ref, t_ref = ida(recs, scales, model, rj.Parapet())
+        moved, _ = ida(recs, scales * (1.0 + PERTURBATION), model, rj.Parapet())
+        print(f"  parapet at the {name} beta {beta:.4g} s: reference (accuracy {acc_ref}) "
+              f"{t_ref:.1f} s", flush=True)  # fmt: skip
+        rows[name] = {"beta": beta, f"PGA x (1 + {PERTURBATION:g})": compare(moved, ref)}
+        for acc in (1.0, rj.Facade.dt_accuracy):
+            ds, t = ida(recs, scales, rj.DEM(beta=beta, accuracy=acc), rj.Parapet())
+            rows[name][f"accuracy {acc}"] = compare(ds, ref) | {"time_s": t}
+        for label, row in rows[name].items():
+            if label == "beta":
+                continue
+            print(
+                f"    {label:<22} collapse flags differ {row['collapse_differs']:3d}; peak d/b "
+                f"of {row['rocking_standing']} rocking runs: median {row['err_median']:.2e}, "
+                f"p95 {row['err_p95']:.2e}, max {row['err_max']:.2e}",
+                flush=True,
+            )
+    return rows
 
 
 if __name__ == "__main__":

@@ -33,8 +33,8 @@ class Parapet(eqx.Module):
             integrated face law (:data:`rockjax.dem.DT_ACCURACY`): 1.0. It bounds the first
             impact's restitution; peaks under records hold to 0.7 % at ``beta_DeJong``, but
             at the lighter ``beta`` fitted to ``e_H`` up to 7 % of runs are more than 5 % off
-            (0 or 1 a case at 0.5; docs/verification.md, "Parapets on records: the default
-            step").
+            (0 or 1 a case at 0.5), and at a ``beta`` 9 times lighter still the median peak
+            is 1.5 % off (docs/verification.md, "Parapets on records: the default step").
         dt_accuracy_sub: The same with integer ``n_sub`` point sub-contacts
             (:data:`rockjax.dem.DT_ACCURACY_SUB`): 0.5, as a point's force switches on whole
             as it closes.
