@@ -121,8 +121,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="experiments/results/facade_ida_step")
     ap.add_argument("--quick", action="store_true", help="4 components x 5 scales (a smoke run)")
-    ap.add_argument("--cost", action="store_true", help="part 1 only (the cost)")
-    ap.add_argument(
+    part = ap.add_mutually_exclusive_group()
+    part.add_argument("--cost", action="store_true", help="part 1 only (the cost)")
+    part.add_argument(
         "--parapets", action="store_true", help="part 3 only (the compared parapets' accuracy)"
     )
     args = ap.parse_args()
@@ -219,7 +220,7 @@ def parapets(recs, scales, betas: dict) -> dict:
         model = rj.DEM(beta=beta, accuracy=acc_ref)
         ref, t_ref = ida(recs, scales, model, rj.Parapet())
         moved, _ = ida(recs, scales * (1.0 + PERTURBATION), model, rj.Parapet())
-        print(f"  parapet at the {name} beta {beta:.4g} s: reference (accuracy {acc_ref}) "
+        print(f"  parapet, {name} beta {beta:.4g} s: reference (accuracy {acc_ref}) "
               f"{t_ref:.1f} s", flush=True)  # fmt: skip
         rows[name] = {"beta": beta, f"PGA x (1 + {PERTURBATION:g})": compare(moved, ref)}
         for acc in (1.0, rj.Facade.dt_accuracy):
