@@ -72,23 +72,14 @@ def records():
     return [r.scaled_to_pga(target_pga_g=1.0) for r in rj.records.fema_p695("farfield")]
 
 
-def beta_of(out: pathlib.Path, mode) -> float:
-    path = out / "beta.json"
+def beta_of(path: pathlib.Path, about: dict, **fit) -> float:
+    """``beta`` [s] kept in ``path``, or ``rj.fit_beta(BLOCK, **fit)`` kept there with
+    ``about`` (what it was fitted for)."""
     if path.is_file():
         return float(json.loads(path.read_text())["beta"])
-    fit = rj.fit_beta(BLOCK, mode=mode)
-    path.write_text(json.dumps({"beta": float(fit.beta), "block": [0.2, 1.5], "gap": GAP}))
-    return float(fit.beta)
-
-
-def parapet_beta_of(out: pathlib.Path) -> float:
-    """The parapet's own ``beta`` [s]: fitted to Housner's ``e_H`` (kept in the folder)."""
-    path = out / "parapet_beta.json"
-    if path.is_file():
-        return float(json.loads(path.read_text())["beta"])
-    fit = rj.fit_beta(BLOCK, e=rj.e_housner(BLOCK))
-    path.write_text(json.dumps({"beta": float(fit.beta), "block": [0.2, 1.5], "e": "e_H"}))
-    return float(fit.beta)
+    beta = float(rj.fit_beta(BLOCK, **fit).beta)
+    path.write_text(json.dumps({"beta": beta, "block": [0.2, 1.5]} | about))
+    return beta
 
 
 def ida(recs, scales, model, mode, chunk_size=None, devices=None):
@@ -134,13 +125,14 @@ def main() -> None:
     scales = SCALES_G
     if args.quick:
         recs, scales = recs[:4], SCALES_G[::4]
-    beta = beta_of(out, facade)
+    beta = beta_of(out / "beta.json", {"gap": GAP}, mode=facade)
     # (the 0.5 m gap is meant: the warning that it is wider than any joint is not for it)
     warnings.filterwarnings("ignore", message="gap=0.5 m is wider")
     print(f"rockjax {rj.__file__}")
     print(f"facade IDA study: {len(recs)} far-field components x {scales.size} scales, "
           f"0.2 x 1.5 m, gap {GAP} m, beta {beta:.4g} s; load {load()}", flush=True)  # fmt: skip
-    beta_p = parapet_beta_of(out)
+    # the parapet's own: fitted to Housner's e_H
+    beta_p = beta_of(out / "parapet_beta.json", {"e": "e_H"}, e=rj.e_housner(BLOCK))
     print(f"the parapet's own beta (fitted to e_H): {beta_p:.4g} s", flush=True)
     summary: dict = {"beta": beta, "n_records": len(recs), "n_scales": int(scales.size)}
     if args.parapets:
