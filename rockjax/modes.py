@@ -99,8 +99,9 @@ class Facade(eqx.Module):
         dt_accuracy_sub: The same with integer ``n_sub``: 0.35.
         dt_accuracy_open: The step accuracy of a one-block facade while its return wall is
             out of reach, against ``omega_max`` and ``zeta`` without the wall's springs [-]:
-            0.35, its own (coarser open steps raised the tail of an IDA's peak errors;
-            docs/verification.md, "Open steps").
+            0.5. Over a far-field IDA its peaks err as at 0.35 where the reference is
+            conditioned; 1.0 (a parapet's) let runs near the uplift threshold err by up to
+            16 % (docs/verification.md, "Open steps").
         dt_accuracy_open_sub: The same with integer ``n_sub``: 0.35.
         default_target: ``"bounces"``: the measured facade bounces as fractions of
             ``|e_1SR|`` (:data:`rockjax.calibration.BOUNCE_FRACTIONS`).
@@ -115,7 +116,7 @@ class Facade(eqx.Module):
     phi_deg: ClassVar[float] = 30.0
     dt_accuracy: ClassVar[float] = 0.35
     dt_accuracy_sub: ClassVar[float] = 0.35
-    dt_accuracy_open: ClassVar[float] = 0.35
+    dt_accuracy_open: ClassVar[float] = 0.5
     dt_accuracy_open_sub: ClassVar[float] = 0.35
     default_target: ClassVar[str] = "bounces"
     threshold_scale: ClassVar[float] = 0.1
