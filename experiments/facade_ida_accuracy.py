@@ -5,10 +5,11 @@ The far-field IDA of ``experiments/facade_ida_step.py`` (the 0.2 x 1.5 m facade,
 steps, against a reference run by run with every step a quarter of ``rj.stable_dt`` (a concrete
 step inside ``jit``: no open steps). Each call adds one labelled IDA (the code imported: put
 another checkout first on ``PYTHONPATH`` to run that code's IDA; ``--open`` sets
-``rj.Facade.dt_accuracy_open`` for this process, with the persistent cache off) and prints every labelled IDA in the folder
-against the reference: the runs whose collapse flag differs, and the relative error of the
-peak ``d/b`` of the runs that stand in both and rock (reference ``d/b >= 0.01``): median, 90th
-and 95th percentiles, largest; then the same over the runs whose reference is conditioned.
+``rj.Facade.dt_accuracy_open`` for this process, with the persistent cache off) and prints
+every labelled IDA in the folder against the reference: the runs whose collapse flag differs,
+and the relative error of the peak ``d/b`` of the runs that stand in both and rock (reference
+``d/b >= 0.01``): median, 90th and 95th percentiles, largest, the count over 2 %; then the same
+over the runs whose reference is conditioned.
 
 Conditioning: the reference is run a second time with every PGA scaled by ``1 + 1e-6``. Near
 collapse the rocking is chaotic, and a run whose peak that change moves by more than
