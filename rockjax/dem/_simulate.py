@@ -71,7 +71,7 @@ def simulate_dem(
     ``jit``/``vmap``/``grad`` the caller's transform fixes the shapes. Many facades of one
     block run fastest one after another on CPU (``rj.ida``, or ``jax.lax.map`` under ``jit``):
     each takes its own open steps, where a ``vmap`` batch takes, each sample, those of all its
-    runs (32 far-field runs: 0.56 s in a loop, 1.75 s as a ``vmap`` batch;
+    runs (32 far-field runs: 0.42 s in a loop, 1.53 s as a ``vmap`` batch;
     ``benchmarks/bench_facade_batch.py``). Many parapets run fastest through
     :func:`rockjax.vmap_chunks` (chunks of a ``vmap`` batch in threads, one per core).
 
