@@ -1,7 +1,8 @@
 """Compile time and step cost of tall brick walls: the unrolled step (every block and joint
 written out) against the array layout of stacks (``rockjax.dem.run(layout="stacked")``, the
-default from ``rockjax.dem.STACKED_MIN_BLOCKS`` blocks up), for stacks of 0.23 x 0.077 m
-brick courses. A script that prints tables, not a test (STYLE.md section 5).
+default from ``rockjax.dem.STACKED_MIN_BLOCKS`` blocks up in a batch, from
+``rockjax.dem.STACKED_MIN_BLOCKS_ONE`` in one history), for stacks of 0.23 x 0.077 m brick
+courses. A script that prints tables, not a test (STYLE.md section 5).
 
     python benchmarks/bench_tall_walls.py                       # n = 2, 5, 10, 20, 50, 100
     python benchmarks/bench_tall_walls.py --sizes 3,4,5,6,8     # where the layouts cross
@@ -11,7 +12,9 @@ For each stack and layout: the compile of one history (``jax.jit`` of ``rockjax.
 split into trace, lower and XLA compile [s], and its first call (the compile and a first run);
 the same for a ``jax.vmap`` batch of ``--batch`` records; then the step cost per block, the
 process CPU time of a warm call divided by steps x blocks [ns], the two layouts timed in
-alternation (``--rounds`` rounds, minima: the machine may be shared). The unrolled layout
+alternation (``--rounds`` rounds, minima: the machine may be shared), and for the batch also
+its wall time (XLA:CPU may run a wide batch's operations on a second thread, which adds CPU
+time). The unrolled layout
 compiles in a time that grows with the stack (minutes from 20 blocks up): it runs up to
 ``--old-max`` blocks. The persistent compilation cache is off (``ROCKJAX_CACHE_DIR=off``).
 """
@@ -84,10 +87,11 @@ def compile_times(fn, *args):
     return (t1 - t0, t2 - t1, t3 - t2, t4 - t0), compiled
 
 
-def cpu_time(compiled, args) -> float:
-    t0 = time.process_time()
+def cpu_time(compiled, args) -> tuple[float, float]:
+    """(process CPU time, wall time) of a call [s]."""
+    t0, w0 = time.process_time(), time.perf_counter()
     jax.block_until_ready(compiled(*args))
-    return time.process_time() - t0
+    return time.process_time() - t0, time.perf_counter() - w0
 
 
 def main(argv=None) -> None:
@@ -103,7 +107,7 @@ def main(argv=None) -> None:
     print(
         f"stacks of {BRICK['b']} x {BRICK['h']} m bricks, face law, beta 1e-3 s, a "
         f"{args.duration} s record; batch of {args.batch}; STACKED_MIN_BLOCKS = "
-        f"{dem.STACKED_MIN_BLOCKS}\n"
+        f"{dem.STACKED_MIN_BLOCKS}, STACKED_MIN_BLOCKS_ONE = {dem.STACKED_MIN_BLOCKS_ONE}\n"
     )
     rows = []
     for n in sizes:
@@ -127,8 +131,9 @@ def main(argv=None) -> None:
                 r["t1"].append(cpu_time(r["f1"], (p, st0, ag)))
                 r["tb"].append(cpu_time(r["fb"], (p, st0, ags)))
         for r in res.values():
-            r["ns1"] = min(r["t1"]) / (steps * n) * 1e9
-            r["nsb"] = min(r["tb"]) / (steps * n * args.batch) * 1e9
+            r["ns1"] = min(t[0] for t in r["t1"]) / (steps * n) * 1e9
+            r["nsb"] = min(t[0] for t in r["tb"]) / (steps * n * args.batch) * 1e9
+            r["wallb"] = min(t[1] for t in r["tb"]) / (steps * n * args.batch) * 1e9
         rows.append((n, n_in, res))
 
     def cell(res, key, fmt, idx=None):
@@ -142,14 +147,17 @@ def main(argv=None) -> None:
         return ("-" if old is None else fmt.format(old)) + " / " + fmt.format(new) + ratio
 
     print("\nunrolled / stacked (ratio stacked/unrolled); compile = trace + lower + XLA [s], step")
-    print("cost per block = process CPU time / (steps x blocks) [ns], minima over the rounds\n")
+    print("cost per block = process CPU time / (steps x blocks) [ns] (and the batch's wall time),")
+    print("minima over the rounds\n")
     print("| blocks | steps/sample | compile, one history [s] | compile, vmap batch [s] "
-          "| ns per block-step, one | ns per block-step, batch (per record) |")  # fmt: skip
-    print("|---|---|---|---|---|---|")
+          "| ns per block-step, one | ns per block-step, batch (per record) "
+          "| wall ns per block-step, batch |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|")
     for n, n_in, res in rows:
         print(
             f"| {n} | {n_in} | {cell(res, 'one', '{:.1f}', 3)} | {cell(res, 'batch', '{:.1f}', 3)}"
-            f" | {cell(res, 'ns1', '{:.0f}')} | {cell(res, 'nsb', '{:.0f}')} |"
+            f" | {cell(res, 'ns1', '{:.0f}')} | {cell(res, 'nsb', '{:.0f}')}"
+            f" | {cell(res, 'wallb', '{:.0f}')} |"
         )
     print("\nthe compile split, trace / lower / XLA, and the first call (compile and run) [s]\n")
     for n, _, res in rows:

@@ -39,7 +39,8 @@ def _stack(n=N_BLOCKS, **kw):
     return rj.Assembly.stack([rj.Block(**BRICK)] * n, **kw)
 
 
-def _both(asm, gm, beta=1e-3, mode="two_sided", top=None, wall=None, save=("energy",)):
+def _both(asm, gm, beta=1e-3, mode="two_sided", top=None, wall=None, save=("energy",),
+          layouts=("stacked", "unrolled")):  # fmt: skip
     p = dem.dem_params(asm, beta, mode=mode)
     st0 = dem.initial_state(asm, p)
     dt = float(dem.default_step(p, 0.5))
@@ -51,7 +52,7 @@ def _both(asm, gm, beta=1e-3, mode="two_sided", top=None, wall=None, save=("ener
         return dem.run(p, st0, ag, z, DT_OUT / n_in, DT_OUT, n_in, save, False, top, wall,
                        layout=layout)  # fmt: skip
 
-    return one("stacked"), one("unrolled")
+    return tuple(one(layout) for layout in layouts)
 
 
 def _assert_same(a, b, keys=("energy",)):
@@ -106,11 +107,11 @@ def test_stacked_collapse_equals_unrolled():
 
 
 def test_simulate_dem_of_a_tall_stack_is_the_stacked_run():
-    # the default layout of a stack of STACKED_MIN_BLOCKS blocks is the array one
-    asm = _stack(dem.STACKED_MIN_BLOCKS)
+    # the default layout of one history of STACKED_MIN_BLOCKS_ONE blocks is the array one
+    asm = _stack(dem.STACKED_MIN_BLOCKS_ONE)
     gm = rj.GroundMotion.sine_cycle(pga=6.0, period=0.25, dt=DT_OUT, duration=0.5)
     r = rj.simulate_dem(asm, gm, beta=1e-3, accuracy=0.5)
-    a, _ = _both(asm, gm)
+    (a,) = _both(asm, gm, layouts=("stacked",))
     np.testing.assert_allclose(r.theta, a.theta, rtol=0, atol=ROUNDOFF_RAD)
 
 
@@ -139,6 +140,31 @@ def test_stacked_program_does_not_grow_with_the_stack():
 
         sizes.append(_equations(jax.make_jaxpr(f)(p, st0, ag).jaxpr))
     assert sizes[0] == sizes[1], sizes
+
+
+def test_default_layout_of_one_history_and_of_a_batch():
+    # one history unrolls a stack below STACKED_MIN_BLOCKS_ONE blocks (its step is cheaper
+    # and it compiles in under 10 s there), a batch from STACKED_MIN_BLOCKS blocks stacks it:
+    # the stacked program is the same size whatever the stack, the unrolled one grows
+    gm = rj.GroundMotion.sine_cycle(pga=1.0, period=0.25, dt=DT_OUT, duration=0.1)
+    ag = jnp.asarray(gm.ag)
+
+    def size(n, one_history):
+        p = dem.dem_params(_stack(n), 1e-3)
+        st0 = dem.initial_state(_stack(n), p)
+
+        def f(p, st0, ag):
+            return dem.run(p, st0, ag, ag, 1e-4, DT_OUT, 100, one_history=one_history)
+
+        return _equations(jax.make_jaxpr(f)(p, st0, ag).jaxpr)
+
+    n_one, n_batch = dem.STACKED_MIN_BLOCKS_ONE, dem.STACKED_MIN_BLOCKS
+    assert n_batch < n_one
+    stacked_one, stacked_batch = size(20, True), size(20, False)
+    assert size(n_one, True) == stacked_one
+    assert size(n_one - 1, True) > stacked_one  # unrolled
+    assert size(n_batch, False) == stacked_batch
+    assert size(n_batch - 1, False) != stacked_batch
 
 
 def test_a_batch_of_stacks_keeps_its_solve_out_of_library_reductions():

@@ -25,7 +25,8 @@ solves), ``_faces`` (the joints' forces), ``_step`` (one step, energy, collapse)
 (initial states), ``_run`` (the scan driver), ``_response`` (what a run returns),
 ``_simulate`` (the public entry points and their checks); ``_stacked`` (the step, energy and
 collapse rule of a tall stack as array operations over its blocks, from
-``STACKED_MIN_BLOCKS`` blocks up: a program that does not grow with the stack).
+``STACKED_MIN_BLOCKS`` blocks up, ``STACKED_MIN_BLOCKS_ONE`` in one history: a program that
+does not grow with the stack).
 """
 
 from ._params import DT_ACCURACY as DT_ACCURACY
@@ -33,6 +34,7 @@ from ._params import DT_ACCURACY_SUB as DT_ACCURACY_SUB
 from ._params import DT_SAFETY as DT_SAFETY
 from ._params import MODES as MODES
 from ._params import STACKED_MIN_BLOCKS as STACKED_MIN_BLOCKS
+from ._params import STACKED_MIN_BLOCKS_ONE as STACKED_MIN_BLOCKS_ONE
 from ._params import DemParams as DemParams
 from ._params import DemState as DemState
 from ._params import critical_dt as critical_dt

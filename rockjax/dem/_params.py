@@ -47,17 +47,26 @@ switches on whole as it closes, so parapets need half the face law's step)."""
 
 STACKED_MIN_BLOCKS = 6
 """Stacks of at least this many blocks run in the array layout (:mod:`rockjax.dem._stacked`,
-:func:`stacked`); smaller stacks, single blocks and rows of blocks side by side unrolled
-(every block and joint written out), whose program, and the time XLA takes to compile it,
-grow with the number of blocks (docs/assemblies.md, "Performance")."""
+:func:`stacked`) in a batch (``jax.vmap``, :func:`rockjax.ida`); smaller stacks, single blocks
+and rows of blocks side by side unrolled (every block and joint written out), whose program,
+and the time XLA takes to compile it, grow with the number of blocks (docs/assemblies.md,
+"Performance"). A batch of 16 records of 6-10 unrolled blocks took 12-24 s to compile
+(docs/benchmarks.md, "Tall walls: one history and batches")."""
+
+STACKED_MIN_BLOCKS_ONE = 9
+"""The same threshold for one history (:func:`rockjax.dem.run`'s ``one_history``: the eager
+:func:`rockjax.simulate_dem`, or one under ``jax.jit`` or ``jax.grad`` without ``jax.vmap``):
+there the unrolled step of 6-8 blocks is 1.16-1.3 times cheaper than the stacked one and
+compiles in 4-8 s; from 9 blocks its compile nears or passes 10 s while the stacked step costs
+at most 1.14 times as much (docs/benchmarks.md, "Tall walls: one history and batches")."""
 
 
-def stacked(p: DemParams, layout: str | None = None) -> bool:
+def stacked(p: DemParams, layout: str | None = None, one_history: bool = False) -> bool:
     """Whether a run of ``p`` takes the array layout: ``layout`` ``"stacked"`` or
     ``"unrolled"`` forces one (a stack of two blocks or more only), None chooses by
-    :data:`STACKED_MIN_BLOCKS`."""
+    :data:`STACKED_MIN_BLOCKS` (:data:`STACKED_MIN_BLOCKS_ONE` for ``one_history``)."""
     if layout is None:
-        return stacked_layout(p.n, p.row)
+        return stacked_layout(p.n, p.row, one_history)
     if layout not in LAYOUTS:
         raise ValueError(
             f"layout must be one of {list(LAYOUTS)} or None (chosen by the stack's height); "
@@ -70,9 +79,10 @@ LAYOUTS = ("stacked", "unrolled")
 """The DEM step's layouts (:func:`rockjax.dem.run`'s ``layout``)."""
 
 
-def stacked_layout(n: int, row: bool) -> bool:
-    """Whether ``n`` blocks (side by side: ``row``) take the array layout by default."""
-    return not row and n >= STACKED_MIN_BLOCKS
+def stacked_layout(n: int, row: bool, one_history: bool = False) -> bool:
+    """Whether ``n`` blocks (side by side: ``row``) take the array layout by default, in one
+    history outside any transform (``one_history``) or else."""
+    return not row and n >= (STACKED_MIN_BLOCKS_ONE if one_history else STACKED_MIN_BLOCKS)
 
 
 def check_joint(joint) -> None:

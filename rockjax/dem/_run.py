@@ -139,9 +139,10 @@ def run(
         layout: How a stack's step is laid out: ``"unrolled"`` (every block and joint
             written out, :func:`rockjax.dem.step`), ``"stacked"`` (array operations over the
             blocks: a program whose size does not grow with the stack's height), or None:
-            stacks of :data:`rockjax.dem.STACKED_MIN_BLOCKS` blocks or more stacked, the
-            others unrolled. A row of blocks side by side is always unrolled. The two give
-            the same history to round-off.
+            stacks of :data:`rockjax.dem.STACKED_MIN_BLOCKS` blocks or more stacked
+            (:data:`rockjax.dem.STACKED_MIN_BLOCKS_ONE` with ``one_history``), the others
+            unrolled. A row of blocks side by side is always unrolled. The two give the same
+            history to round-off.
         n_open: A facade of one block (``p.one_sided``): the steps a sample while its return
             wall is out of reach (an integer array <= ``n_in``, with ``n_in`` data), or None:
             every sample in ``n_in`` steps. A sample whose start is within
@@ -154,7 +155,7 @@ def run(
             ``dt_next``). With ``n_in`` data, a run that has collapsed or failed takes one
             step a sample.
     """
-    vec = stacked(p, layout)
+    vec = stacked(p, layout, one_history)
     st0 = as_arrays(st0) if vec else as_tuples(st0)
 
     def nxt(a):

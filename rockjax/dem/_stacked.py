@@ -3,12 +3,13 @@
 
 The unrolled step writes every block and joint out as scalars, so its program, and the time
 XLA takes to compile it, grows with the number of blocks (docs/assemblies.md, "Performance").
-A stack (bed joints only) of :data:`STACKED_MIN_BLOCKS` blocks or more runs this layout
-instead: the ground joint is :func:`rockjax.dem._faces.interface` on the stack itself; the bed
-joints are the same function mapped (``jax.vmap``) over the ``n - 1`` two-block views of the
-stack (lower block ``k - 1``, upper block ``k``, the joint's own face fields); the back faces
-on return walls are mapped over the blocks; the block-tridiagonal system ``(M + dt/2 C) a = F``
-is solved by block elimination in a ``lax.scan`` over the blocks. The state's per-block
+A stack (bed joints only) of :data:`STACKED_MIN_BLOCKS` blocks or more in a batch
+(:data:`STACKED_MIN_BLOCKS_ONE` in one history) runs this layout instead: the ground joint is
+:func:`rockjax.dem._faces.interface` on the stack itself; the bed joints are the same
+function mapped (``jax.vmap``) over the ``n - 1`` two-block views of the stack (lower block
+``k - 1``, upper block ``k``, the joint's own face fields); the back faces on return walls
+are mapped over the blocks; the block-tridiagonal system ``(M + dt/2 C) a = F`` is solved by
+block elimination in a ``lax.scan`` over the blocks. The state's per-block
 fields are arrays of shape ``(n,)`` here (the shear springs ``(n, n_fs)``), so the program
 holds one copy of each joint, whatever the height of the stack. The two layouts give the same
 history to round-off (tests/test_assembly_stacked.py).
