@@ -34,6 +34,7 @@ import time
 import jax
 import jax.numpy as jnp
 import numpy as np
+from peak_errors import peak_errors
 
 import rockjax as rj
 
@@ -41,7 +42,6 @@ BLOCK = rj.Block(b=0.2, h=1.5)
 BETA = 3.01e-4  # [s]
 MODE = rj.Facade(gap=0.001)
 SCALES_G = np.geomspace(0.05, 2.0, 20)
-ROCKS = 0.01
 PERTURBATION = 1e-6  # relative change of every PGA in the reference's perturbed copy
 CONDITIONED = 1e-4  # largest relative change of a conditioned reference's peak d/b
 
@@ -109,15 +109,12 @@ def main() -> None:
             continue
         x = np.load(path)
         for title, keep in (("every run", np.ones_like(conditioned)), ("conditioned", conditioned)):
-            ok = (x["s"] == 0) & keep
-            stand = ok & ~x["c"] & ~ref["c"] & (ref["d"] >= ROCKS)
-            err = np.abs(x["d"][stand] / ref["d"][stand] - 1.0)
-            q = np.quantile(err, [0.5, 0.9, 0.95])
+            e = peak_errors(x["d"], x["c"], ref["d"], ref["c"], (x["s"] == 0) & keep)
             print(
-                f"  {path.stem:<10} {title:<12} collapse flags differ "
-                f"{int(np.sum(x['c'][ok] != ref['c'][ok]))} of {int(ok.sum())}; peak d/b of "
-                f"{int(stand.sum())} runs: median {q[0]:.1e}, p90 {q[1]:.1e}, p95 {q[2]:.1e}, "
-                f"max {err.max():.1e}; over 2 %: {int(np.sum(err > 0.02))}"
+                f"  {path.stem:<10} {title:<12} collapse flags differ {e['collapse_differs']} "
+                f"of {e['runs']}; peak d/b of {e['rocking_standing']} runs: median "
+                f"{e['err_median']:.1e}, p90 {e['err_p90']:.1e}, p95 {e['err_p95']:.1e}, max "
+                f"{e['err_max']:.1e}; over 2 %: {e['err_over_2pct']}"
             )
 
 

@@ -47,6 +47,7 @@ import warnings
 
 import jax
 import numpy as np
+from peak_errors import peak_errors
 
 import rockjax as rj
 from rockjax.ida import host_threads
@@ -56,7 +57,6 @@ GAP = 0.001  # [m]
 SCALES_G = np.geomspace(0.05, 2.0, 20)  # PGA of the scaled record [g]
 REFERENCE_ACCURACY = 0.175
 ACCURACIES = (0.35, 0.7, 1.0)
-ROCKS = 0.01  # d/b of the reference above which a run counts as rocking
 FAR_GAP = 0.5  # [m]: a return wall the block never reaches (cost part only)
 EQUAL = "parapet DEM, facade accuracy"  # (cost part only)
 OWN = "parapet DEM, its own beta"  # (cost part only)
@@ -92,20 +92,13 @@ def ida(recs, scales, model, mode, chunk_size=None, devices=None):
 
 
 def compare(ds, ref) -> dict:
-    c, c_ref = ds["collapse"].values, ref["collapse"].values
+    """:func:`peak_errors` of an IDA Dataset against the reference's, over the runs that
+    finished in both."""
     ok = (ds["status"].values == 0) & (ref["status"].values == 0)
-    d, d_ref = ds["max_d_over_b"].values, ref["max_d_over_b"].values
-    stand = ok & ~c & ~c_ref & (d_ref >= ROCKS)
-    err = np.abs(d[stand] / d_ref[stand] - 1.0)
-    return {
-        "runs": int(ok.sum()),
-        "collapse_agrees": float(np.mean(c[ok] == c_ref[ok])),
-        "collapse_differs": int(np.sum(c[ok] != c_ref[ok])),
-        "rocking_standing": int(stand.sum()),
-        "err_median": float(np.median(err)),
-        "err_p95": float(np.quantile(err, 0.95)),
-        "err_max": float(np.max(err)),
-    }
+    return peak_errors(
+        ds["max_d_over_b"].values, ds["collapse"].values,
+        ref["max_d_over_b"].values, ref["collapse"].values, ok,
+    )  # fmt: skip
 
 
 def main() -> None:

@@ -28,6 +28,7 @@ import time
 import jax
 import jax.numpy as jnp
 import numpy as np
+from peak_errors import ROCKS, peak_errors
 
 import rockjax as rj
 
@@ -36,7 +37,6 @@ BETA = 3.01e-4  # [s], the facade's fitted beta (experiments/facade_ida_step.py)
 GAP = 0.001  # [m]
 PGAS_G = (0.05, 0.1, 0.16, 0.22, 0.29, 0.4)
 OPEN_ACCURACIES = (1.0, 0.7, 0.5, 0.35)
-ROCKS = 0.01  # reference d/b above which a run counts as rocking
 
 
 def uniform(motion: rj.GroundMotion, dt: float):
@@ -54,17 +54,8 @@ def peak(r) -> tuple[float, bool]:
 
 
 def stats(rows: np.ndarray, col: int) -> dict:
-    ref_d, ref_c = rows[:, 0], rows[:, 1]
-    d, c = rows[:, col], rows[:, col + 1]
-    stand = (c == 0) & (ref_c == 0) & (ref_d >= ROCKS)
-    err = np.abs(d[stand] / ref_d[stand] - 1.0)
-    return {
-        "collapse_differs": int(np.sum(c != ref_c)),
-        "rocking_standing": int(stand.sum()),
-        "err_median": float(np.median(err)),
-        "err_p95": float(np.quantile(err, 0.95)),
-        "err_max": float(err.max()),
-    }
+    """:func:`peak_errors` of the runs in columns ``col, col + 1`` against columns 0, 1."""
+    return peak_errors(rows[:, col], rows[:, col + 1], rows[:, 0], rows[:, 1])
 
 
 def main() -> None:
