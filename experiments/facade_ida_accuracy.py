@@ -5,7 +5,7 @@ The far-field IDA of ``experiments/facade_ida_step.py`` (the 0.2 x 1.5 m facade,
 steps, against a reference run by run with every step a quarter of ``rj.stable_dt`` (a concrete
 step inside ``jit``: no open steps). Each call adds one labelled IDA (the code imported: put
 another checkout first on ``PYTHONPATH`` to run that code's IDA; ``--open`` sets
-``rj.Facade.dt_accuracy_open`` for this process, with the persistent cache off) and prints
+``rj.Facade.dt_accuracy_open`` for this process) and prints
 every labelled IDA in the folder against the reference: the runs whose collapse flag differs,
 and the relative error of the peak ``d/b`` of the runs that stand in both and rock (reference
 ``d/b >= 0.01``): median, 90th and 95th percentiles, largest, the count over 2 %; then the same
@@ -27,7 +27,6 @@ as ``reference.npz`` and ``reference_perturbed.npz``).
 from __future__ import annotations
 
 import argparse
-import os
 import pathlib
 import time
 
@@ -75,9 +74,8 @@ def main() -> None:
     ap.add_argument("--out", default="experiments/results/facade_ida_accuracy")
     args = ap.parse_args()
     if args.open is not None:
-        # read where rj.ida's chunk is traced, and not in the key of a program kept on disk:
-        # this process keeps none, so that no later one loads a program at this accuracy
-        os.environ[rj.compilation.CACHE_ENV] = "off"
+        # set before the first run: a program kept on disk is keyed by the mode's class
+        # attributes too, so no later process loads a program traced at this accuracy
         rj.Facade.dt_accuracy_open = args.open
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

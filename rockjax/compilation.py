@@ -53,6 +53,7 @@ import enum
 import functools
 import hashlib
 import importlib.metadata
+import inspect
 import logging
 import math
 import os
@@ -504,10 +505,29 @@ def _describe(x) -> str:
         fields = ",".join(
             f"{f.name}={_describe(getattr(x, f.name, None))}" for f in dataclasses.fields(x)
         )
-        return f"{_import_path(type(x))}({fields})"
+        constants = ",".join(
+            f"{name}={_describe(getattr(type(x), name, None))}"
+            for name in _class_constants(type(x))
+        )
+        return f"{_import_path(type(x))}({fields})[{constants}]"
     if callable(x):
         return f"fn:{_import_path(x)}"
     raise _Unkeyed
+
+
+@functools.cache
+def _class_constants(kind: type) -> tuple[str, ...]:
+    """The names of a class's ``ClassVar`` attributes of plain values (a mode's step
+    accuracies, its name), in the key of a kept program beside the fields: tracing may read
+    them, and a script may change one for a study (``rj.Facade.dt_accuracy_open``), which
+    must not load a program traced at the old value. Their values are read at each call."""
+    names = set()
+    for klass in kind.__mro__:
+        for name, note in inspect.get_annotations(klass).items():
+            if "ClassVar" in str(note):
+                names.add(name)
+    plain = (type(None), bool, int, float, str)
+    return tuple(sorted(n for n in names if isinstance(getattr(kind, n, None), plain)))
 
 
 @functools.cache
@@ -564,8 +584,8 @@ def persistent_jit(fn):
     lowering (``jax.export``); XLA's compiled program then comes from JAX's own cache.
 
     A kept program is keyed by everything that shapes it: the arguments (arrays by shape, dtype
-    and weak type; Python values exactly; modules field by field; functions and classes by
-    import path), the hash of rockjax's source, the libraries' versions, the backend and the
+    and weak type; Python values exactly; modules field by field and by the plain values of
+    their class's ``ClassVar`` attributes; functions and classes by import path), the hash of rockjax's source, the libraries' versions, the backend and the
     configuration that tracing reads. Only functions of rockjax (or of the libraries) are kept.
     A call inside ``jit``, ``vmap`` or ``grad``, or with a function or class from elsewhere as
     an argument, is ``filter_jit``'s. A program that cannot be exported (one that calls back

@@ -422,6 +422,23 @@ def test_kept_programs_are_keyed_by_static_values(kept):
     assert float(again(b)) == got[1] and dict(again.sources) == {"loaded": 1}
 
 
+def test_kept_programs_are_keyed_by_class_attributes(kept, monkeypatch):
+    # a study may change a mode's class attribute (its open-step accuracy); a new process
+    # must then trace its own program, not load one traced at the old value
+    facade, eta = rj.Facade(gap=0.001), jnp.asarray(0.2)
+    first = compilation.persistent_jit(rj.Facade.default_e)
+    want = float(first(facade, eta))
+    assert dict(first.sources) == {"exported": 1}
+    monkeypatch.setattr(rj.Facade, "dt_accuracy_open", 0.25)
+    changed = compilation.persistent_jit(rj.Facade.default_e)  # as in a new process
+    assert float(changed(facade, eta)) == want
+    assert dict(changed.sources) == {"exported": 1}
+    assert len(list(kept.glob("default_e-*.jaxexp"))) == 2
+    monkeypatch.undo()
+    again = compilation.persistent_jit(rj.Facade.default_e)
+    assert float(again(facade, eta)) == want and dict(again.sources) == {"loaded": 1}
+
+
 def test_traced_calls_and_functions_from_elsewhere_are_not_kept(kept):
     f = compilation.persistent_jit(rj.relations.e_housner)
     slope = jax.grad(f)(0.2)  # a tracer inside grad: filter_jit's
