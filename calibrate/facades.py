@@ -33,7 +33,7 @@ FULL = {
     "E": (1.8e9, 4.05e9),
     "scan": (0.0, 0.5, 1.0, 2.0, 4.0, 8.0),
     "method": "root",
-    "max_iter": 12,
+    "max_iter": 40,  # the squat (h/b 3) fits need 13-40 Illinois steps
     "gap_geometries": tuple((0.11, r, 1.8e9) for r in (3, 8, 16, 24)),
     "gaps": GAPS_M,
 }
@@ -113,7 +113,8 @@ def fit(blk: rj.Block, rows: list[dict], cfg: dict) -> dict:
             "pct_isr3": float(pct[2]),
             "loss": f.loss,
             "n_simulations": f.n_simulations,
-            "error": "",
+            "converged": bool(f.converged),
+            "error": "" if f.converged else f"not converged: {f.reason}",
         }
     nan = float("nan")
     keys = ("beta_fit_s", "fit_over_eq7", "fit_over_hcrit", "e_exp1", "e_exp2", "e_exp3")
@@ -123,6 +124,7 @@ def fit(blk: rj.Block, rows: list[dict], cfg: dict) -> dict:
         "beta_max_s": nan,
         "beta_eq7_s": beta_eq7,
         "n_simulations": 0,
+        "converged": False,
         "error": msg,
     }
 
@@ -198,11 +200,18 @@ def _plot_fit(fits, path: Path) -> None:
     for b in sorted({f["b_m"] for f in fits}):
         for E in sorted({f["E_Pa"] for f in fits}):
             sel = [f for f in fits if (f["b_m"], f["E_Pa"]) == (b, E)]
-            ax.semilogy(
-                [f["h_over_b"] for f in sel],
-                [f["beta_fit_s"] for f in sel],
+            (dots,) = ax.semilogy(
+                [f["h_over_b"] for f in sel if f["converged"]],
+                [f["beta_fit_s"] for f in sel if f["converged"]],
                 "o",
                 label=f"fit b={b:g} E={E / 1e9:g} GPa",
+            )
+            ax.semilogy(  # a search that did not converge: where it stopped, hollow
+                [f["h_over_b"] for f in sel if not f["converged"]],
+                [f["beta_fit_s"] for f in sel if not f["converged"]],
+                "o",
+                mfc="none",
+                c=dots.get_color(),
             )
             ax.semilogy(
                 [f["h_over_b"] for f in sel],
@@ -242,7 +251,9 @@ def run(out: Path, quick: bool = False, n_sub="exact") -> dict:
     """Run the facade study with the DEM joint ``rj.Joint(n_sub=n_sub)``; write CSV/JSON/PNG
     under ``out`` (after every geometry).
 
-    The gap study runs right after the fit of each geometry in ``cfg["gap_geometries"]``.
+    The gap study runs right after the fit of each geometry in ``cfg["gap_geometries"]`` whose
+    fit converged (``converged`` in the fit table; a search that did not is kept as where it
+    stopped, marked).
     """
     cfg = {**(QUICK if quick else FULL), "n_sub": n_sub}
     joint = rj.Joint(n_sub=n_sub)
@@ -255,12 +266,15 @@ def run(out: Path, quick: bool = False, n_sub="exact") -> dict:
         scans += [{**head, **row} for row in rows]
         f = {**head, **fit(_block(b, r, E), rows, cfg)}
         fits.append(f)
-        if (b, r, E) in cfg["gap_geometries"] and np.isfinite(f["beta_fit_s"]):
+        if (b, r, E) in cfg["gap_geometries"] and f["converged"]:
             pick = ("b_m", "h_m", "h_over_b", "E_Pa", "beta_fit_s")
             res = gap_ratios(_block(b, r, E), f["beta_fit_s"], cfg["gaps"], f["beta_max_s"], joint)
             gaps += [{**{k: f[k] for k in pick}, **g} for g in res]
         _write(out, scans, fits, gaps, cfg, progress)
-        progress.step(f"b={b:g} m h/b={r:g} E={E / 1e9:g} GPa beta_fit={f['beta_fit_s']:.3g} s")
+        note = "" if f["converged"] else " (not converged)"
+        progress.step(
+            f"b={b:g} m h/b={r:g} E={E / 1e9:g} GPa beta_fit={f['beta_fit_s']:.3g} s{note}"
+        )
     _plot_scan(scans, fits, out / "facades_scan.png")
     _plot_fit(fits, out / "facades_fit.png")
     if gaps:
