@@ -56,7 +56,7 @@ and the time XLA takes to compile it, grow with the number of blocks (docs/assem
 STACKED_MIN_BLOCKS_ONE = 9
 """The same threshold for one history (:func:`rockjax.dem.run`'s ``one_history``: the eager
 :func:`rockjax.simulate_dem`, or one under ``jax.jit`` or ``jax.grad`` without ``jax.vmap``):
-there the unrolled step of 6-8 blocks is 1.16-1.3 times cheaper than the stacked one and
+there the unrolled step of 6-8 blocks is 1.1-1.3 times cheaper than the stacked one and
 compiles in 4-8 s; from 9 blocks its compile nears or passes 10 s while the stacked step costs
 at most 1.14 times as much (docs/benchmarks.md, "Tall walls: one history and batches")."""
 
@@ -81,7 +81,7 @@ LAYOUTS = ("stacked", "unrolled")
 
 def stacked_layout(n: int, row: bool, one_history: bool = False) -> bool:
     """Whether ``n`` blocks (side by side: ``row``) take the array layout by default, in one
-    history outside any transform (``one_history``) or else."""
+    history (``one_history``: not in a batch) or in a batch."""
     return not row and n >= (STACKED_MIN_BLOCKS_ONE if one_history else STACKED_MIN_BLOCKS)
 
 

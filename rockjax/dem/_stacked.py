@@ -9,10 +9,10 @@ A stack (bed joints only) of :data:`STACKED_MIN_BLOCKS` blocks or more in a batc
 function mapped (``jax.vmap``) over the ``n - 1`` two-block views of the stack (lower block
 ``k - 1``, upper block ``k``, the joint's own face fields); the back faces on return walls
 are mapped over the blocks; the block-tridiagonal system ``(M + dt/2 C) a = F`` is solved by
-block elimination in a ``lax.scan`` over the blocks. The state's per-block
-fields are arrays of shape ``(n,)`` here (the shear springs ``(n, n_fs)``), so the program
-holds one copy of each joint, whatever the height of the stack. The two layouts give the same
-history to round-off (tests/test_assembly_stacked.py).
+block elimination in a ``lax.scan`` over the blocks. The state's per-block fields are arrays
+of shape ``(n,)`` here (the shear springs ``(n, n_fs)``), so the program holds one copy of
+each joint, whatever the height of the stack. The two layouts give the same history to
+round-off (tests/test_assembly_stacked.py).
 """
 
 from __future__ import annotations
