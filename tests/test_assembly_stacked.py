@@ -167,6 +167,24 @@ def test_default_layout_of_one_history_and_of_a_batch():
     assert size(n_batch - 1, False) != stacked_batch
 
 
+def test_a_stack_inside_a_transform_takes_the_batch_layout():
+    # rj.simulate_dem under jax.jit or jax.grad stacks from STACKED_MIN_BLOCKS blocks, as a
+    # batch does: the reverse-mode program of an unrolled 8-block stack compiled in 69 s,
+    # of the stacked one in 22 s (docs/benchmarks.md, "Tall walls: one history and batches")
+    gm = rj.GroundMotion.sine_cycle(pga=1.0, period=0.25, dt=DT_OUT, duration=0.1)
+
+    def size(n):
+        asm = _stack(n)
+
+        def f(beta):
+            return rj.simulate_dem(asm, gm, beta=beta, dt=2e-4, throw=False).theta_max
+
+        return _equations(jax.make_jaxpr(f)(1e-3).jaxpr)
+
+    assert dem.STACKED_MIN_BLOCKS < dem.STACKED_MIN_BLOCKS_ONE
+    assert size(dem.STACKED_MIN_BLOCKS) == size(20)
+
+
 def test_a_batch_of_stacks_keeps_its_solve_out_of_library_reductions():
     """A batch of 64 six-block stacks: the solve's entries (21 a block) are kept whole by two
     reductions of 12 and 9 outputs, which XLA:CPU compiles itself. One reduction per array

@@ -47,16 +47,16 @@ switches on whole as it closes, so parapets need half the face law's step)."""
 
 STACKED_MIN_BLOCKS = 6
 """Stacks of at least this many blocks run in the array layout (:mod:`rockjax.dem._stacked`,
-:func:`stacked`) in a batch (``jax.vmap``, :func:`rockjax.ida`); smaller stacks, single blocks
-and rows of blocks side by side unrolled (every block and joint written out), whose program,
-and the time XLA takes to compile it, grow with the number of blocks (docs/assemblies.md,
-"Performance"). A batch of 16 records of 6-10 unrolled blocks took 12-24 s to compile
-(docs/benchmarks.md, "Tall walls: one history and batches")."""
+:func:`stacked`) in a batch or a transform (``jax.vmap``, :func:`rockjax.ida`, ``jax.jit``,
+``jax.grad``); smaller stacks, single blocks and rows of blocks side by side unrolled (every
+block and joint written out), whose program, and the time XLA takes to compile it, grow with
+the number of blocks (docs/assemblies.md, "Performance"). A batch of 16 records of 6-10
+unrolled blocks took 12-24 s to compile, the reverse-mode program of an 8-block stack 69 s
+against 22 s stacked (docs/benchmarks.md, "Tall walls: one history and batches")."""
 
 STACKED_MIN_BLOCKS_ONE = 9
-"""The same threshold for one history (:func:`rockjax.dem.run`'s ``one_history``: the eager
-:func:`rockjax.simulate_dem`, or one under ``jax.jit`` or ``jax.grad`` without ``jax.vmap``):
-there the unrolled step of 6-8 blocks is 1.1-1.3 times cheaper than the stacked one and
+"""The same threshold for one history outside any transform (:func:`rockjax.dem.run`'s
+``one_history``, as the eager :func:`rockjax.simulate_dem` runs): there the unrolled step of 6-8 blocks is 1.1-1.3 times cheaper than the stacked one and
 compiles in 4-8 s; from 9 blocks its compile nears or passes 10 s while the stacked step costs
 at most 1.14 times as much (docs/benchmarks.md, "Tall walls: one history and batches")."""
 
@@ -81,7 +81,7 @@ LAYOUTS = ("stacked", "unrolled")
 
 def stacked_layout(n: int, row: bool, one_history: bool = False) -> bool:
     """Whether ``n`` blocks (side by side: ``row``) take the array layout by default, in one
-    history (``one_history``: not in a batch) or in a batch."""
+    history outside any transform (``one_history``) or else."""
     return not row and n >= (STACKED_MIN_BLOCKS_ONE if one_history else STACKED_MIN_BLOCKS)
 
 

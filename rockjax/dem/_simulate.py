@@ -24,6 +24,7 @@ from ._params import (
     check_accuracy,
     check_params,
     mode_of,
+    stacked_layout,
 )
 from ._response import AssemblyResponse, cut, cut_block
 from ._run import failure_message, padded_length, run, run_block
@@ -188,7 +189,12 @@ def simulate_dem(
         # inside the caller's jit/vmap/grad: their transform fixes the shapes
         one = not is_batched(p, st0, ag, ag_v, top, wall, step)
         args = (save, throw, top, wall)
-        return program(p, st0, ag, ag_v, step, dt_out, n_in, *args, one_history=one, n_open=n_open)
+        kw = dict(one_history=one, n_open=n_open)
+        if not single:
+            # a stack takes the batch's layout rule in any transform: the reverse-mode program
+            # of an unrolled 8-block stack compiled in 57 s, of the stacked one in 18 s
+            kw["layout"] = "stacked" if stacked_layout(p.n, p.row) else "unrolled"
+        return program(p, st0, ag, ag_v, step, dt_out, n_in, *args, **kw)
     resp = run_padded(
         program, p, st0, ag, ag_v, step, dt_out, (n_in, n_open), save, top, wall, mode.name
     )
