@@ -15,7 +15,8 @@ process CPU time of a warm call divided by steps x blocks [ns], the two layouts 
 alternation (``--rounds`` rounds, minima: the machine may be shared), and for the batch also
 its wall time (XLA:CPU may run a wide batch's operations on a second thread, which adds CPU
 time). The unrolled layout compiles in a time that grows with the stack (minutes from 20
-blocks up): it runs up to ``--old-max`` blocks. The persistent compilation cache is off (``ROCKJAX_CACHE_DIR=off``).
+blocks up): it runs up to ``--old-max`` blocks. The persistent compilation cache is off
+(``ROCKJAX_CACHE_DIR=off``).
 """
 
 from __future__ import annotations

@@ -585,8 +585,9 @@ def persistent_jit(fn):
 
     A kept program is keyed by everything that shapes it: the arguments (arrays by shape, dtype
     and weak type; Python values exactly; modules field by field and by the plain values of
-    their class's ``ClassVar`` attributes; functions and classes by import path), the hash of rockjax's source, the libraries' versions, the backend and the
-    configuration that tracing reads. Only functions of rockjax (or of the libraries) are kept.
+    their class's ``ClassVar`` attributes; functions and classes by import path), the hash of
+    rockjax's source, the libraries' versions, the backend and the configuration that tracing
+    reads. Only functions of rockjax (or of the libraries) are kept.
     A call inside ``jit``, ``vmap`` or ``grad``, or with a function or class from elsewhere as
     an argument, is ``filter_jit``'s. A program that cannot be exported (one that calls back
     into Python, as ``eqx.error_if`` does) runs as traced, in this process only (a notice says

@@ -56,9 +56,9 @@ against 22 s stacked (docs/benchmarks.md, "Tall walls: one history and batches")
 
 STACKED_MIN_BLOCKS_ONE = 9
 """The same threshold for one history outside any transform (:func:`rockjax.dem.run`'s
-``one_history``, as the eager :func:`rockjax.simulate_dem` runs): there the unrolled step of 6-8 blocks is 1.1-1.3 times cheaper than the stacked one and
-compiles in 4-8 s; from 9 blocks its compile nears or passes 10 s while the stacked step costs
-at most 1.14 times as much (docs/benchmarks.md, "Tall walls: one history and batches")."""
+``one_history``, as the eager :func:`rockjax.simulate_dem` runs): there the unrolled step of
+6-8 blocks is 1.1-1.3 times cheaper than the stacked one and compiles in 4-8 s; from 9 blocks
+its compile nears or passes 10 s while the stacked step costs at most 1.14 times as much (docs/benchmarks.md, "Tall walls: one history and batches")."""
 
 
 def stacked(p: DemParams, layout: str | None = None, one_history: bool = False) -> bool:

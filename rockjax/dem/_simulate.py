@@ -192,7 +192,8 @@ def simulate_dem(
         kw = dict(one_history=one, n_open=n_open)
         if not single:
             # a stack takes the batch's layout rule in any transform: the reverse-mode program
-            # of an unrolled 8-block stack compiled in 57 s, of the stacked one in 18 s
+            # of an unrolled 8-block stack compiled in 69 s, of the stacked one in 22 s
+            # (docs/benchmarks.md, "Tall walls: one history and batches")
             kw["layout"] = "stacked" if stacked_layout(p.n, p.row) else "unrolled"
         return program(p, st0, ag, ag_v, step, dt_out, n_in, *args, **kw)
     resp = run_padded(
