@@ -10,8 +10,11 @@ courses. A script that prints tables, not a test (STYLE.md section 5).
 
 For each stack and layout: the compile of one history (``jax.jit`` of ``rockjax.dem.run``)
 split into trace, lower and XLA compile [s], and its first call (the compile and a first run);
-the same for a ``jax.vmap`` batch of ``--batch`` records; then the step cost per block, the
-process CPU time of a warm call divided by steps x blocks [ns], the two layouts timed in
+the same for a ``jax.vmap`` batch of ``--batch`` records; the same for one history by the
+default rule (``layout=None``: from ``STACKED_MIN_BLOCKS_ONE`` to
+``rockjax.dem.SOLVE_UNROLLED_MAX_BLOCKS`` blocks the stacked layout with its solve written
+out, which the two named layouts do not run); then the step cost per block, the
+process CPU time of a warm call divided by steps x blocks [ns], the programs timed in
 alternation (``--rounds`` rounds, minima: the machine may be shared), and for the batch also
 its wall time (XLA:CPU may run a wide batch's operations on a second thread, which adds CPU
 time). The unrolled layout compiles in a time that grows with the stack (minutes from 20
@@ -44,6 +47,7 @@ from rockjax import dem  # noqa: E402
 BRICK = dict(b=0.23, h=0.077)
 RECORD_DT = 0.01
 LAYOUTS = ("unrolled", "stacked")
+DEFAULT = "default"  # one history by the default rule (layout=None)
 
 
 def setup(n: int, duration: float, batch: int):
@@ -57,7 +61,10 @@ def setup(n: int, duration: float, batch: int):
     return p, st0, n_in, ag, jnp.asarray(scales[:, None] * np.asarray(gm.ag))
 
 
-def programs(layout: str, n_in: int):
+def programs(layout: str | None, n_in: int):
+    """The one-history and the batch program of ``layout`` (None: the default rule; in one
+    history a stacked stack of up to ``SOLVE_UNROLLED_MAX_BLOCKS`` blocks then writes its
+    solve out)."""
     dt = RECORD_DT / n_in
 
     def one(p, st0, ag):
@@ -107,7 +114,8 @@ def main(argv=None) -> None:
     print(
         f"stacks of {BRICK['b']} x {BRICK['h']} m bricks, face law, beta 1e-3 s, a "
         f"{args.duration} s record; batch of {args.batch}; STACKED_MIN_BLOCKS = "
-        f"{dem.STACKED_MIN_BLOCKS}, STACKED_MIN_BLOCKS_ONE = {dem.STACKED_MIN_BLOCKS_ONE}\n"
+        f"{dem.STACKED_MIN_BLOCKS}, STACKED_MIN_BLOCKS_ONE = {dem.STACKED_MIN_BLOCKS_ONE}, "
+        f"SOLVE_UNROLLED_MAX_BLOCKS = {dem.SOLVE_UNROLLED_MAX_BLOCKS}\n"
     )
     rows = []
     for n in sizes:
@@ -126,14 +134,20 @@ def main(argv=None) -> None:
                 f"{sum(cb[:3]):6.1f} s",
                 flush=True,
             )
+        # one history by the default rule (layout=None), as the eager rj.simulate_dem runs it
+        c1, f1 = compile_times(programs(None, n_in)[0], p, st0, ag)
+        res[DEFAULT] = dict(one=c1, f1=f1, t1=[])
+        print(f"n={n:3d} {DEFAULT:8s} compile one {sum(c1[:3]):6.1f} s", flush=True)
         for _ in range(args.rounds):
             for r in res.values():
                 r["t1"].append(cpu_time(r["f1"], (p, st0, ag)))
-                r["tb"].append(cpu_time(r["fb"], (p, st0, ags)))
+                if "fb" in r:
+                    r["tb"].append(cpu_time(r["fb"], (p, st0, ags)))
         for r in res.values():
             r["ns1"] = min(t[0] for t in r["t1"]) / (steps * n) * 1e9
-            r["nsb"] = min(t[0] for t in r["tb"]) / (steps * n * args.batch) * 1e9
-            r["wallb"] = min(t[1] for t in r["tb"]) / (steps * n * args.batch) * 1e9
+            if "fb" in r:
+                r["nsb"] = min(t[0] for t in r["tb"]) / (steps * n * args.batch) * 1e9
+                r["wallb"] = min(t[1] for t in r["tb"]) / (steps * n * args.batch) * 1e9
         rows.append((n, n_in, res))
 
     def cell(res, key, fmt, idx=None):
@@ -159,14 +173,26 @@ def main(argv=None) -> None:
             f" | {cell(res, 'ns1', '{:.0f}')} | {cell(res, 'nsb', '{:.0f}')}"
             f" | {cell(res, 'wallb', '{:.0f}')} |"
         )
+    print("\none history by the default rule (layout=None, as the eager rj.simulate_dem runs it;")
+    print("from STACKED_MIN_BLOCKS_ONE to SOLVE_UNROLLED_MAX_BLOCKS blocks: stacked, its solve")
+    print("written out), against the unrolled step (ratio default / unrolled)\n")
+    print("| blocks | compile [s] | ns per block-step |")
+    print("|---|---|---|")
+    for n, _, res in rows:
+        d, u = res[DEFAULT], res.get("unrolled")
+        ratio = "" if u is None else f" ({d['ns1'] / u['ns1']:.2f})"
+        print(f"| {n} | {sum(d['one'][:3]):.1f} | {d['ns1']:.0f}{ratio} |")
     print("\nthe compile split, trace / lower / XLA, and the first call (compile and run) [s]\n")
     for n, _, res in rows:
         for layout, r in res.items():
-            c1, cb = r["one"], r["batch"]
-            print(
+            c1, cb = r["one"], r.get("batch")
+            line = (
                 f"n={n:3d} {layout:8s}: one {c1[0]:.1f} / {c1[1]:.1f} / {c1[2]:.1f}, first call "
-                f"{c1[3]:.1f}; batch {cb[0]:.1f} / {cb[1]:.1f} / {cb[2]:.1f}, first call {cb[3]:.1f}"
+                f"{c1[3]:.1f}"
             )
+            if cb is not None:
+                line += f"; batch {cb[0]:.1f} / {cb[1]:.1f} / {cb[2]:.1f}, first call {cb[3]:.1f}"
+            print(line)
 
 
 if __name__ == "__main__":

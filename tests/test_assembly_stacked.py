@@ -40,7 +40,7 @@ def _stack(n=N_BLOCKS, **kw):
 
 
 def _both(asm, gm, beta=1e-3, mode="two_sided", top=None, wall=None, save=("energy",),
-          layouts=("stacked", "unrolled")):  # fmt: skip
+          layouts=("stacked", "unrolled"), one_history=False):  # fmt: skip
     p = dem.dem_params(asm, beta, mode=mode)
     st0 = dem.initial_state(asm, p)
     dt = float(dem.default_step(p, 0.5))
@@ -50,7 +50,7 @@ def _both(asm, gm, beta=1e-3, mode="two_sided", top=None, wall=None, save=("ener
 
     def one(layout):
         return dem.run(p, st0, ag, z, DT_OUT / n_in, DT_OUT, n_in, save, False, top, wall,
-                       layout=layout)  # fmt: skip
+                       one_history=one_history, layout=layout)  # fmt: skip
 
     return tuple(one(layout) for layout in layouts)
 
@@ -82,6 +82,22 @@ def test_stacked_facade_on_a_moving_wall_equals_unrolled():
     omega = 2 * np.pi / 0.4
     wall = (jnp.asarray(0.004 * np.sin(omega * t)), jnp.asarray(0.004 * omega * np.cos(omega * t)))
     a, b = _both(_stack(), gm, mode=rj.Facade(gap=0.001), wall=wall, save=("energy", "forces"))
+    assert float(jnp.max(jnp.abs(b.theta))) > 1e-3
+    _assert_same(a, b, keys=("energy", "work_wall", "wall_forces", "normal_forces"))
+
+
+def test_one_history_with_its_solve_written_out_equals_unrolled():
+    # one history by the default rule (layout=None) from STACKED_MIN_BLOCKS_ONE blocks: the
+    # stacked layout with its solve written out block by block (SOLVE_UNROLLED_MAX_BLOCKS),
+    # here a facade on a moving wall, whose back faces add to every diagonal block
+    n = dem.STACKED_MIN_BLOCKS_ONE
+    assert n <= dem.SOLVE_UNROLLED_MAX_BLOCKS
+    gm = rj.GroundMotion.sine_cycle(pga=5.0, period=0.25, dt=DT_OUT, duration=1.0)
+    t = np.arange(gm.n) * DT_OUT
+    omega = 2 * np.pi / 0.4
+    wall = (jnp.asarray(0.004 * np.sin(omega * t)), jnp.asarray(0.004 * omega * np.cos(omega * t)))
+    a, b = _both(_stack(n), gm, mode=rj.Facade(gap=0.001), wall=wall, save=("energy", "forces"),
+                 layouts=(None, "unrolled"), one_history=True)  # fmt: skip
     assert float(jnp.max(jnp.abs(b.theta))) > 1e-3
     _assert_same(a, b, keys=("energy", "work_wall", "wall_forces", "normal_forces"))
 
@@ -145,26 +161,37 @@ def test_stacked_program_does_not_grow_with_the_stack():
 def test_default_layout_of_one_history_and_of_a_batch():
     # one history unrolls a stack below STACKED_MIN_BLOCKS_ONE blocks (its step is cheaper
     # and it compiles in under 10 s there), a batch from STACKED_MIN_BLOCKS blocks stacks it:
-    # the stacked program is the same size whatever the stack, the unrolled one grows
+    # the default rule's program is the named layout's, the stacked one does not grow with the
+    # stack, the unrolled one does. In one history up to SOLVE_UNROLLED_MAX_BLOCKS blocks the
+    # stacked layout writes its solve out: a program between the two, growing by a solve's block
     gm = rj.GroundMotion.sine_cycle(pga=1.0, period=0.25, dt=DT_OUT, duration=0.1)
     ag = jnp.asarray(gm.ag)
 
-    def size(n, one_history):
+    def size(n, one_history, layout=None):
         p = dem.dem_params(_stack(n), 1e-3)
         st0 = dem.initial_state(_stack(n), p)
 
         def f(p, st0, ag):
-            return dem.run(p, st0, ag, ag, 1e-4, DT_OUT, 100, one_history=one_history)
+            return dem.run(p, st0, ag, ag, 1e-4, DT_OUT, 100, one_history=one_history,
+                           layout=layout)  # fmt: skip
 
         return _equations(jax.make_jaxpr(f)(p, st0, ag).jaxpr)
 
-    n_one, n_batch = dem.STACKED_MIN_BLOCKS_ONE, dem.STACKED_MIN_BLOCKS
-    assert n_batch < n_one
-    stacked_one, stacked_batch = size(20, True), size(20, False)
-    assert size(n_one, True) == stacked_one
-    assert size(n_one - 1, True) > stacked_one  # unrolled
-    assert size(n_batch, False) == stacked_batch
-    assert size(n_batch - 1, False) != stacked_batch
+    n_one, n_batch, n_out = (
+        dem.STACKED_MIN_BLOCKS_ONE, dem.STACKED_MIN_BLOCKS, dem.SOLVE_UNROLLED_MAX_BLOCKS
+    )  # fmt: skip
+    assert n_batch < n_one <= n_out
+    # a batch
+    stacked_batch = size(20, False)
+    assert size(n_batch, False) == stacked_batch == size(n_batch, False, "stacked")
+    assert size(n_batch - 1, False) == size(n_batch - 1, False, "unrolled") != stacked_batch
+    # one history
+    assert size(n_one - 1, True) == size(n_one - 1, True, "unrolled")
+    written = [size(n, True) for n in (n_one, n_one + 1, n_out)]
+    assert size(n_one, True, "stacked") < written[0] < size(n_one, True, "unrolled")
+    # the solve written out grows by one block's elimination a block, up to n_out blocks
+    assert (written[2] - written[1]) == (n_out - n_one - 1) * (written[1] - written[0]) > 0
+    assert size(n_out + 1, True) == size(40, True) == size(40, True, "stacked")
 
 
 def test_a_stack_inside_a_transform_takes_the_batch_layout():

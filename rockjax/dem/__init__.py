@@ -33,6 +33,7 @@ from ._params import DT_ACCURACY as DT_ACCURACY
 from ._params import DT_ACCURACY_SUB as DT_ACCURACY_SUB
 from ._params import DT_SAFETY as DT_SAFETY
 from ._params import MODES as MODES
+from ._params import SOLVE_UNROLLED_MAX_BLOCKS as SOLVE_UNROLLED_MAX_BLOCKS
 from ._params import STACKED_MIN_BLOCKS as STACKED_MIN_BLOCKS
 from ._params import STACKED_MIN_BLOCKS_ONE as STACKED_MIN_BLOCKS_ONE
 from ._params import DemParams as DemParams

@@ -57,8 +57,22 @@ against 22 s stacked (docs/benchmarks.md, "Tall walls: one history and batches")
 STACKED_MIN_BLOCKS_ONE = 9
 """The same threshold for one history outside any transform (:func:`rockjax.dem.run`'s
 ``one_history``, as the eager :func:`rockjax.simulate_dem` runs): there the unrolled step of
-6-8 blocks is 1.1-1.3 times cheaper than the stacked one and compiles in 4-8 s; from 9 blocks
-its compile nears or passes 10 s while the stacked step costs at most 1.14 times as much (docs/benchmarks.md, "Tall walls: one history and batches")."""
+6-8 blocks is 1.1-1.3 times cheaper than the stacked one and compiles in 4-6 s; from 9 blocks
+its compile nears or passes 10 s, while the stacked step with its solve written out
+(:data:`SOLVE_UNROLLED_MAX_BLOCKS`) costs 0.93-0.97 times the unrolled one and compiles in
+4 s (docs/benchmarks.md, "Tall walls: the solve written out")."""
+
+SOLVE_UNROLLED_MAX_BLOCKS = 16
+"""One history by the default rule (:func:`rockjax.dem.run` with ``one_history`` and no
+``layout``, as the eager :func:`rockjax.simulate_dem` runs) of a stacked stack of up to this
+many blocks solves its step's system block by block, written out
+(:func:`rockjax.dem._stacked.solve_chain` with ``unrolled``); a taller stack, a batch, or a
+run whose caller names the layout (:func:`rockjax.simulate_dem` inside a transform), by the
+elimination as a ``lax.scan``. Written out, a one-history step cost 174-179 ns a block-step
+at 9-16 blocks, against 201-207 with the scan and 180-241 unrolled, and compiled in 3.7-5.7 s
+against 2.4-3.7 s; its reverse-mode program compiled in 123 s against 22 s with the scan (10
+blocks), hence not inside a transform; in a batch of 16 it cost the same as the scan
+(docs/benchmarks.md, "Tall walls: the solve written out")."""
 
 
 def stacked(p: DemParams, layout: str | None = None, one_history: bool = False) -> bool:

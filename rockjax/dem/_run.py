@@ -45,7 +45,16 @@ from ..response import (
     Response,
 )
 from ._faces import wall_reach
-from ._params import STATE_FIELDS, DemParams, DemState, as_arrays, as_tuples, omega_max, stacked
+from ._params import (
+    SOLVE_UNROLLED_MAX_BLOCKS,
+    STATE_FIELDS,
+    DemParams,
+    DemState,
+    as_arrays,
+    as_tuples,
+    omega_max,
+    stacked,
+)
 from ._response import AssemblyResponse, block_response
 from ._stacked import collapsed_stacked, energy_stacked, step_stacked
 from ._step import advance, collapsed, energy, step
@@ -141,8 +150,12 @@ def run(
             blocks: a program whose size does not grow with the stack's height), or None:
             stacks of :data:`rockjax.dem.STACKED_MIN_BLOCKS` blocks or more stacked
             (:data:`rockjax.dem.STACKED_MIN_BLOCKS_ONE` with ``one_history``), the others
-            unrolled. A row of blocks side by side is always unrolled. The two give the same
-            history to round-off.
+            unrolled; with ``one_history`` a stack of up to
+            :data:`rockjax.dem.SOLVE_UNROLLED_MAX_BLOCKS` blocks then writes its solve out
+            block by block (a cheaper step; its reverse-mode program compiles several times
+            slower, so a caller inside a transform names the layout, as
+            :func:`rockjax.simulate_dem` does). A row of blocks side by side is always
+            unrolled. The layouts give the same history to round-off.
         n_open: A facade of one block (``p.one_sided``): the steps a sample while its return
             wall is out of reach (an integer array <= ``n_in``, with ``n_in`` data), or None:
             every sample in ``n_in`` steps. A sample whose start is within
@@ -156,6 +169,10 @@ def run(
             step a sample.
     """
     vec = stacked(p, layout, one_history)
+    # the default rule in one history (the eager call) writes a stack's solve out: under a
+    # transform the caller names the layout (the reverse-mode program of a 10-block stack
+    # with the solve written out compiled in 123 s, with the scan in 22 s)
+    written_out = vec and one_history and layout is None and p.n <= SOLVE_UNROLLED_MAX_BLOCKS
     st0 = as_arrays(st0) if vec else as_tuples(st0)
 
     def nxt(a):
@@ -222,7 +239,9 @@ def run(
             wm = wall_at(j, n)
             ag_j, agv_j = a0 + j * (a1 - a0) / n, v0 + j * (v1 - v0) / n
             if vec:
-                s_, acc, power, rec = step_stacked(p, s_, ag_j, agv_j, h, top_motion=tm, wall=wm)
+                s_, acc, power, rec = step_stacked(
+                    p, s_, ag_j, agv_j, h, top_motion=tm, wall=wm, written_out=written_out
+                )
                 # whole arrays (the unrolled layout's scalars, in the same order)
                 flat = [acc]
             else:

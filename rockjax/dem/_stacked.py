@@ -9,10 +9,11 @@ A stack (bed joints only) of :data:`STACKED_MIN_BLOCKS` blocks or more in a batc
 function mapped (``jax.vmap``) over the ``n - 1`` two-block views of the stack (lower block
 ``k - 1``, upper block ``k``, the joint's own face fields); the back faces on return walls
 are mapped over the blocks; the block-tridiagonal system ``(M + dt/2 C) a = F`` is solved by
-block elimination in a ``lax.scan`` over the blocks. The state's per-block fields are arrays
-of shape ``(n,)`` here (the shear springs ``(n, n_fs)``), so the program holds one copy of
-each joint, whatever the height of the stack. The two layouts give the same history to
-round-off (tests/test_assembly_stacked.py).
+block elimination in a ``lax.scan`` over the blocks (in one history of up to
+:data:`SOLVE_UNROLLED_MAX_BLOCKS` blocks, written out block by block). The state's per-block
+fields are arrays of shape ``(n,)`` here (the shear springs ``(n, n_fs)``), so the program
+holds one copy of each joint, whatever the height of the stack. The two layouts give the
+same history to round-off (tests/test_assembly_stacked.py).
 """
 
 from __future__ import annotations
@@ -83,11 +84,22 @@ def face_ends_of(kin, face_span):
 
 
 def step_stacked(
-    p: DemParams, st: DemState, ag, ag_v, dt, *, load=None, top_motion=None, wall=None
+    p: DemParams,
+    st: DemState,
+    ag,
+    ag_v,
+    dt,
+    *,
+    load=None,
+    top_motion=None,
+    wall=None,
+    written_out: bool = False,
 ):
     """:func:`rockjax.dem.step` of a stack in the array layout (``st`` from
     :func:`rockjax.dem._params.as_arrays`). Returns the same ``(new, acc, power, forces)`` with arrays: ``acc``
-    ``(n, 3)``, the forces' ``normal``, ``shear`` and ``wall`` ``(n,)``."""
+    ``(n, 3)``, the forces' ``normal``, ``shear`` and ``wall`` ``(n,)``. ``written_out``: the
+    solve written out block by block (:func:`solve_chain`;
+    :data:`rockjax.dem.SOLVE_UNROLLED_MAX_BLOCKS`)."""
     n = p.n
     n_fs = st.fs.shape[-1]
     # the ground joint: interface 0 of the stack itself
@@ -134,7 +146,7 @@ def step_stacked(
     mass = jnp.stack([p.m, p.m, p.I_c], axis=-1)
     diag = h * cdiag + mass[:, :, None] * jnp.eye(3)[None]
     rhs = force - jnp.stack([p.m * ag, p.m * (G + ag_v), jnp.zeros_like(p.m)], axis=-1)
-    acc = solve_chain(diag, h * c_ul, rhs)
+    acc = solve_chain(diag, h * c_ul, rhs, written_out)
     new = advance(*(getattr(st, f) for f in STATE_FIELDS), acc[:, 0], acc[:, 1], acc[:, 2], dt)
     d_max = ()
     if not isinstance(st.d_max, tuple):  # tracked where the driver asks
@@ -151,17 +163,44 @@ def step_stacked(
     return out, acc, power, forces
 
 
-def solve_chain(diag, lower, rhs):
-    """:func:`rockjax.dem._algebra.solve_tridiagonal`'s system in arrays, by the same block
-    elimination as a ``lax.scan`` over the blocks (forward, then back): ``diag``
-    ``(n, 3, 3)``, ``lower`` ``(n - 1, 3, 3)`` (``A[k, k-1]`` of ``k = 1..n-1``; symmetric,
-    ``A[k-1, k] = lower^T``), ``rhs`` ``(n, 3)``; returns ``x`` ``(n, 3)``.
+def eliminate(inv_prev, g_prev, d_k, low_k, r_k):
+    """One block of the forward elimination: block ``k``'s pivot inverse and right-hand side
+    from block ``k - 1``'s and its own diagonal block, sub-diagonal block and right-hand side."""
+    li = mm(low_k, inv_prev)
+    corr = mm(li, transpose(low_k))
+    inv_k = inv3([[d_k[i][j] - corr[i][j] for j in range(3)] for i in range(3)])
+    g = mv(li, g_prev)
+    return inv_k, [r_k[i] - g[i] for i in range(3)]
 
-    One copy of a block's elimination in the program whatever ``n``. The scans carry each
-    entry as an array of its own (over the blocks; in a batch, a row of the batch's values
-    at each block), so that a step of the loop reads contiguous values. Block cyclic reduction
-    (``log2 n`` levels of array operations) ran as fast in one history, 2.4 times slower in a
-    batch of 16 fifty-block stacks, and compiled slower.
+
+def substitute(x_next, inv_k, g_k, low_next):
+    """One block of the back substitution: ``x_k`` from ``x_{k+1}``."""
+    u = mv(transpose(low_next), x_next)
+    return mv(inv_k, [g_k[i] - u[i] for i in range(3)])
+
+
+def whole(inv, g):
+    """A pivot inverse and right-hand side computed once each (:func:`computed_once`)."""
+    flat = computed_once(*[inv[i][j] for i in range(3) for j in range(3)], *g)
+    return [list(flat[3 * i : 3 * i + 3]) for i in range(3)], list(flat[9:])
+
+
+def solve_chain(diag, lower, rhs, unrolled: bool = False):
+    """:func:`rockjax.dem._algebra.solve_tridiagonal`'s system in arrays, by the same block
+    elimination: ``diag`` ``(n, 3, 3)``, ``lower`` ``(n - 1, 3, 3)`` (``A[k, k-1]`` of
+    ``k = 1..n-1``; symmetric, ``A[k-1, k] = lower^T``), ``rhs`` ``(n, 3)``; returns ``x``
+    ``(n, 3)``.
+
+    By default as a ``lax.scan`` over the blocks (forward, then back): one copy of a block's
+    elimination in the program whatever ``n``. The scans carry each entry as an array of its
+    own (over the blocks; in a batch, a row of the batch's values at each block), so that a
+    step of the loop reads contiguous values. Block cyclic reduction (``log2 n`` levels of
+    array operations) ran as fast in one history, 2.4 times slower in a batch of 16
+    fifty-block stacks, and compiled slower. With ``unrolled`` the blocks are written out one
+    after another, each block's results computed once (:func:`computed_once`; inlined, XLA
+    copied each block's elimination into the later ones, and a step cost 1.6-2.4 times as
+    much in one history of 6-10 blocks, 1.7-4.7 times in a batch of 16); see
+    :data:`rockjax.dem.SOLVE_UNROLLED_MAX_BLOCKS`.
 
     The system's entries are computed once by entry, in two reductions with many outputs
     (:func:`rockjax._fusion.computed_once`): the diagonal blocks' and the right-hand side's
@@ -182,15 +221,20 @@ def solve_chain(diag, lower, rhs):
     d, r = [list(flat[3 * i : 3 * i + 3]) for i in range(3)], list(flat[9:])
     flat = computed_once(*entries(lower))
     low = [list(flat[3 * i : 3 * i + 3]) for i in range(3)]
+    n = diag.shape[0]
+    if unrolled:
+        pivots = [whole(inv3(at(d, 0)), [v[0] for v in r])]
+        for k in range(1, n):
+            inv_k, g_k = eliminate(*pivots[-1], at(d, k), at(low, k - 1), [v[k] for v in r])
+            pivots.append(whole(inv_k, g_k))
+        x = [None] * n
+        x[n - 1] = list(computed_once(*mv(*pivots[n - 1])))
+        for k in range(n - 2, -1, -1):
+            x[k] = list(computed_once(*substitute(x[k + 1], *pivots[k], at(low, k))))
+        return jnp.stack([jnp.stack(x_k) for x_k in x])
 
     def forward(carry, x):
-        inv_prev, g_prev = carry
-        d_k, low_k, r_k = x
-        li = mm(low_k, inv_prev)
-        corr = mm(li, transpose(low_k))
-        inv_k = inv3([[d_k[i][j] - corr[i][j] for j in range(3)] for i in range(3)])
-        g = mv(li, g_prev)
-        g = [r_k[i] - g[i] for i in range(3)]
+        inv_k, g = eliminate(*carry, *x)
         return (inv_k, g), (inv_k, g)
 
     def tail(m):
@@ -203,9 +247,7 @@ def solve_chain(diag, lower, rhs):
     last = mv(at(invs, -1), [v[-1] for v in gs])
 
     def backward(x_next, y):
-        inv_k, g_k, low_next = y
-        u = mv(transpose(low_next), x_next)
-        x_k = mv(inv_k, [g_k[i] - u[i] for i in range(3)])
+        x_k = substitute(x_next, *y)
         return x_k, x_k
 
     # the rows 0 .. n-2: row 0's pivot and right-hand side, then the scan's but the last
